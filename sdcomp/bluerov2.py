@@ -60,8 +60,8 @@ def _along_z(radius: float, z0: float, z1: float, x: float, y: float,
 def _capsule_path(points: Sequence[Sequence[float]], radius: float) -> m3.Manifold:
     """A cable: capsules (hulls of two spheres) joining consecutive ``points``."""
     balls = [m3.Manifold.sphere(radius, 12).translate(list(p)) for p in points]
-    return m3.Manifold.batch_boolean(
-        [m3.Manifold.batch_hull([a, b]) for a, b in zip(balls[:-1], balls[1:])], m3.OpType.Add)
+    links = [m3.Manifold.batch_hull([a, b]) for a, b in zip(balls[:-1], balls[1:], strict=True)]
+    return m3.Manifold.batch_boolean(links, m3.OpType.Add)
 
 
 def _rounded_rect(x0: float, x1: float, y0: float, y1: float, r: float) -> m3.CrossSection:
@@ -248,7 +248,8 @@ def _wings() -> list[Part]:
         pts = [(x, s * y) for x, y in WING_OUTLINE]
         outline = _polygon(pts, round_r=0.004)
         window = _rounded_rect(-0.055, 0.058, *sorted((s * 0.160, s * 0.268)), 0.020)
-        holes = [m3.CrossSection.circle(0.049, _SEG).translate([x, s * 0.217]) for x in (0.12, -0.12)]
+        holes = [m3.CrossSection.circle(0.049, _SEG).translate([x, s * 0.217])
+                 for x in (0.12, -0.12)]
         section = outline - window
         for h in holes:
             section = section - h
@@ -304,7 +305,7 @@ def _unite(parts: list[Part], name: str, waterline: float) -> ColoredMesh:
     run_ids = np.asarray(mesh.run_original_id)
     run_index = np.asarray(mesh.run_index)
     colours = np.zeros((len(faces), 3), np.uint8)
-    for rid, start, end in zip(run_ids, run_index[:-1] // 3, run_index[1:] // 3):
+    for rid, start, end in zip(run_ids, run_index[:-1] // 3, run_index[1:] // 3, strict=True):
         colours[start:end] = colour_of.get(int(rid), BLACK)
     verts, wl = centred(verts, waterline)
     return ColoredMesh(verts, faces, colours, wl, name, closed=True)

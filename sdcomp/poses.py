@@ -73,7 +73,8 @@ class PoseGrid:
         if not 0 <= self.max_off_nadir <= 90:
             raise ValueError(f"max off-nadir must be in [0, 90] degrees, got {self.max_off_nadir}")
         if not 0 < self.off_nadir_step <= 45:
-            raise ValueError(f"off-nadir step must be in (0, 45] degrees, got {self.off_nadir_step}")
+            raise ValueError(
+                f"off-nadir step must be in (0, 45] degrees, got {self.off_nadir_step}")
         if not self.off_nadir_step / 2 < self.max_error <= 45:
             raise ValueError(
                 f"max error must be in ({self.off_nadir_step / 2:g}, 45] degrees "
@@ -82,7 +83,8 @@ class PoseGrid:
             raise ValueError(f"tilt max must be in [0, 30] degrees, got {self.tilt_max}")
         if self.tilt_max > 0 and not 0 < self.tilt_step <= self.tilt_max:
             raise ValueError(
-                f"tilt step must be in (0, tilt max = {self.tilt_max:g}] degrees, got {self.tilt_step}")
+                f"tilt step must be in (0, tilt max = {self.tilt_max:g}] degrees, "
+                f"got {self.tilt_step}")
 
     def rings(self) -> list[tuple[float, int]]:
         """(off-nadir degrees, number of azimuths) for each ring, nadir first."""

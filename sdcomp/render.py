@@ -101,76 +101,80 @@ def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.divide(nrm, length, out=np.zeros_like(nrm), where=length > 0)
 
 
-def _triangle_setup(sx, sy, faces):
-    """Per-triangle screen coordinates with counter-clockwise winding and twice the area."""
-    x = sx[faces]
-    y = sy[faces]
-    area2 = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    return x, y, area2
-
-
 def _zbuffer(sx, sy, depth, faces, n) -> np.ndarray:
     """(n*n,) int64 z-buffer: per sub-pixel, (quantised distance << 32 | triangle index).
 
-    The smallest key is the nearest triangle; empty sub-pixels hold ``_EMPTY``.
+    Scanline rasterisation, vectorised over all triangle rows at once: a sub-pixel belongs
+    to a triangle when its centre lies inside it or on its boundary. The smallest key is the
+    nearest triangle; empty sub-pixels hold ``_EMPTY``.
     """
     zbuf = np.full(n * n, _EMPTY, dtype=np.int64)
     if len(faces) == 0:
         return zbuf
-    x, y, area2 = _triangle_setup(sx, sy, faces)
-    ok = np.abs(area2) > 1e-12
-    # pixel centres i + 0.5 inside [min, max]
-    x0 = np.clip(np.ceil(x.min(axis=1) - 0.5), 0, n).astype(np.int64)
-    x1 = np.clip(np.floor(x.max(axis=1) - 0.5), -1, n - 1).astype(np.int64)
-    y0 = np.clip(np.ceil(y.min(axis=1) - 0.5), 0, n).astype(np.int64)
-    y1 = np.clip(np.floor(y.max(axis=1) - 0.5), -1, n - 1).astype(np.int64)
-    w = np.where(ok, np.maximum(x1 - x0 + 1, 0), 0)
-    h = np.where(ok, np.maximum(y1 - y0 + 1, 0), 0)
-    count = w * h
-    tris = np.flatnonzero(count)
+    x = sx[faces]
+    y = sy[faces]
+    d = depth[faces]
+    area2 = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
+    r0 = np.clip(np.ceil(y.min(axis=1) - 0.5), 0, n).astype(np.int64)
+    r1 = np.clip(np.floor(y.max(axis=1) - 0.5), -1, n - 1).astype(np.int64)
+    rows_per = np.where(np.abs(area2) > 1e-12, np.maximum(r1 - r0 + 1, 0), 0)
+    tris = np.flatnonzero(rows_per)
     if len(tris) == 0:
         return zbuf
-    # barycentric coordinates are affine in (px, py): l_k = a_k px + b_k py + c_k
-    inv = 1.0 / area2[tris]
-    xt, yt = x[tris], y[tris]
-    coef = np.empty((len(tris), 3, 3))
-    for k in range(3):
-        i, j = (k + 1) % 3, (k + 2) % 3
-        coef[:, k, 0] = (yt[:, i] - yt[:, j]) * inv
-        coef[:, k, 1] = (xt[:, j] - xt[:, i]) * inv
-        coef[:, k, 2] = (xt[:, i] * yt[:, j] - xt[:, j] * yt[:, i]) * inv
-    d = depth[faces[tris]]
-    dz = np.einsum("tkc,tk->tc", coef, d)  # depth plane: dz0 px + dz1 py + dz2
+    # depth is affine over a triangle: depth = gx * px + gy * py + g0
+    x, y, d, area2 = x[tris], y[tris], d[tris], area2[tris]
+    ex1, ex2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    ey1, ey2 = y[:, 1] - y[:, 0], y[:, 2] - y[:, 0]
+    ed1, ed2 = d[:, 1] - d[:, 0], d[:, 2] - d[:, 0]
+    gx = (ed1 * ey2 - ed2 * ey1) / area2
+    gy = (ex1 * ed2 - ex2 * ed1) / area2
+    g0 = d[:, 0] - gx * x[:, 0] - gy * y[:, 0]
+    # edges with endpoints ordered by y, so that two triangles sharing an edge compute
+    # bit-identical crossings and leave no cracks
+    ea = np.stack([x[:, [0, 1, 2]], y[:, [0, 1, 2]]], axis=-1)
+    eb = np.stack([x[:, [1, 2, 0]], y[:, [1, 2, 0]]], axis=-1)
+    swap = ea[..., 1] > eb[..., 1]
+    lo = np.where(swap[..., None], eb, ea)
+    hi = np.where(swap[..., None], ea, eb)
+    dy = hi[..., 1] - lo[..., 1]
+    slope = np.divide(hi[..., 0] - lo[..., 0], dy, out=np.zeros_like(dy), where=dy > 0)
+
     dmax = float(depth.max())
     scale = (2**30) / max(float(depth.max() - depth.min()), 1e-12)
+    nrows = rows_per[tris]
+    # one entry per (triangle, row)
+    row_t = np.repeat(np.arange(len(tris)), nrows)
+    row_y = r0[tris][row_t] + (np.arange(len(row_t)) - np.repeat(np.cumsum(nrows) - nrows, nrows))
+    fy = row_y + 0.5
+    xl = np.full(len(row_t), np.inf)
+    xr = np.full(len(row_t), -np.inf)
+    for k in range(3):
+        ly, hy, lx = lo[row_t, k, 1], hi[row_t, k, 1], lo[row_t, k, 0]
+        on = (fy >= ly) & (fy <= hy) & (hy > ly)
+        xi = lx + (fy - ly) * slope[row_t, k]
+        xl = np.where(on, np.minimum(xl, xi), xl)
+        xr = np.where(on, np.maximum(xr, xi), xr)
+    ok = np.isfinite(xl)
+    c0 = np.clip(np.ceil(np.where(ok, xl, 0) - 0.5 - 1e-9), 0, n).astype(np.int64)
+    c1 = np.clip(np.floor(np.where(ok, xr, -1) - 0.5 + 1e-9), -1, n - 1).astype(np.int64)
+    span = np.maximum(c1 - c0 + 1, 0)
+    row_base = gy[row_t] * fy + g0[row_t]
+    row_gx = gx[row_t]
+    row_tri = tris[row_t]
+    row_pix = row_y * n + c0
 
-    counts = count[tris]
-    ends = np.cumsum(counts)
+    ends = np.cumsum(span)
     start = 0
-    while start < len(tris):
+    while start < len(span):
         base = ends[start - 1] if start else 0
-        stop = int(np.searchsorted(ends, base + _CHUNK, side="right"))
-        stop = max(stop, start + 1)
-        sl = slice(start, stop)
-        c = counts[sl]
-        local_t = np.repeat(np.arange(stop - start), c)
-        offs = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
-        ww = w[tris[sl]][local_t]
-        qy, qx = np.divmod(offs, ww)
-        px = x0[tris[sl]][local_t] + qx
-        py = y0[tris[sl]][local_t] + qy
-        fx = px + 0.5
-        fy = py + 0.5
-        cf = coef[sl][local_t]
-        eps = -1e-7
-        inside = np.ones(len(px), dtype=bool)
-        for k in range(3):
-            inside &= cf[:, k, 0] * fx + cf[:, k, 1] * fy + cf[:, k, 2] >= eps
-        dzs = dz[sl][local_t[inside]]
-        dd = dzs[:, 0] * fx[inside] + dzs[:, 1] * fy[inside] + dzs[:, 2]
+        stop = max(int(np.searchsorted(ends, base + _CHUNK, side="right")), start + 1)
+        c = span[start:stop]
+        r = np.repeat(np.arange(start, stop), c)
+        off = np.arange(len(r)) - np.repeat(np.cumsum(c) - c, c)
+        px = c0[r] + off
+        dd = row_base[r] + row_gx[r] * (px + 0.5)
         q = np.clip((dmax - dd) * scale, 0, 2**31 - 1).astype(np.int64)
-        keys = (q << 32) | tris[sl][local_t[inside]]
-        np.minimum.at(zbuf, py[inside] * n + px[inside], keys)
+        np.minimum.at(zbuf, row_pix[r] + off, (q << 32) | row_tri[r])
         start = stop
     return zbuf
 

@@ -1,0 +1,169 @@
+"""Reading a user's mesh file (STL, OBJ, PLY, GLB/GLTF, OFF) into a :class:`ColoredMesh`.
+
+Colours come from the file where it has them (face colours, vertex colours averaged per face,
+material base colour or texture sampled at the vertices) unless one colour is forced. A scene
+with several parts is merged with each part's colour kept. Units and the up axis are the
+caller's to state; the result is in metres, z up, centred on its bounding box.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .coloredmesh import ColoredMesh, centred
+from .errors import UserError
+
+SUPPORTED = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
+UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}
+UP_AXES = ("auto", "x", "y", "z", "-x", "-y", "-z")
+DEFAULT_COLOR = (170, 170, 170)
+MAX_EXTENT_M = 1000.0
+MIN_EXTENT_M = 0.001
+DEFAULT_WATERLINE_FRACTION = 0.25  # of the height, from the bottom, when none is given
+
+
+def safe_name(path: Path) -> str:
+    """A file-name-safe short name for a mesh file: its stem, other characters as '_'."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", path.stem).strip("._") or "mesh"
+
+
+def _up_rotation(up: str) -> np.ndarray:
+    """(3, 3) rotation taking the file's ``up`` axis to +z (x stays forward where it can)."""
+    sign = -1.0 if up.startswith("-") else 1.0
+    axis = up[-1]
+    rot = {
+        "z": np.eye(3),
+        "y": np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], float),  # +y -> +z, +z -> -y
+        "x": np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]], float),  # +x -> +z, +z -> -x
+    }[axis]
+    if sign < 0:
+        rot = np.diag([1.0, -1.0, -1.0]) @ rot  # flip: a half turn about x
+    return rot
+
+
+def _face_colours(geom, override: tuple[int, int, int] | None) -> np.ndarray:
+    """(F, 3) uint8 sRGB colours of a ``trimesh.Trimesh``'s faces."""
+    nf = len(geom.faces)
+    if override is not None:
+        return np.tile(np.array(override, np.uint8), (nf, 1))
+    visual = geom.visual
+    kind = getattr(visual, "kind", None)
+    try:
+        if kind == "face":
+            return np.asarray(visual.face_colors)[:, :3].astype(np.uint8)
+        if kind == "vertex":
+            vc = np.asarray(visual.vertex_colors)[:, :3].astype(np.float64)
+            return np.rint(vc[geom.faces].mean(axis=1)).astype(np.uint8)
+        if kind == "texture":
+            material = getattr(visual, "material", None)
+            try:
+                vc = np.asarray(visual.to_color().vertex_colors)[:, :3].astype(np.float64)
+                if len(vc) == len(geom.vertices):
+                    return np.rint(vc[geom.faces].mean(axis=1)).astype(np.uint8)
+            except Exception:  # no UVs or no image: fall back to the material's colour
+                pass
+            if material is not None:
+                main = np.asarray(material.main_color)[:3].astype(np.uint8)
+                return np.tile(main, (nf, 1))
+    except Exception:  # a broken colour table: the geometry is still usable
+        pass
+    return np.tile(np.array(DEFAULT_COLOR, np.uint8), (nf, 1))
+
+
+def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
+                   color: tuple[int, int, int] | None = None,
+                   waterline: float | None = None) -> ColoredMesh:
+    """Load a mesh file as a :class:`ColoredMesh` (metres, z up, centred on its bounds).
+
+    Args:
+        path: an STL, OBJ, PLY, GLB, GLTF or OFF file.
+        units: the file's length unit, one of ``m``, ``dm``, ``cm``, ``mm``.
+        up: the file's up axis (``x``, ``y``, ``z``, ``-x``, ...); ``auto`` is ``y`` for
+            glTF (its convention) and ``z`` for the others.
+        color: one sRGB colour for every face instead of the file's colours.
+        waterline: height of the waterline above the mesh's lowest point, metres; by
+            default a quarter of its height.
+
+    Raises:
+        UserError: missing or unreadable file, unsupported format, no triangles, or a size
+            over 1 km or under 1 mm (the message suggests the right ``--units``).
+    """
+    path = Path(path)
+    if units not in UNITS:
+        raise UserError(f"--units {units!r} is not a unit; use one of {', '.join(UNITS)}")
+    if up not in UP_AXES:
+        raise UserError(f"--up {up!r} is not an axis; use one of {', '.join(UP_AXES)}")
+    suffix = path.suffix.lower()
+    if not path.exists():
+        raise UserError(f"mesh file {str(path)!r} does not exist")
+    if not path.is_file():
+        raise UserError(f"mesh path {str(path)!r} is not a file")
+    if suffix not in SUPPORTED:
+        raise UserError(f"mesh file {str(path)!r} has an unsupported format {suffix or '(none)'!r};"
+                        f" use one of {', '.join(SUPPORTED)}")
+    geoms = _read_geometries(path, suffix)
+    if not geoms:
+        raise UserError(f"mesh file {str(path)!r} contains no triangles")
+
+    if up == "auto":
+        up = "y" if suffix in (".glb", ".gltf") else "z"
+    rot = _up_rotation(up) * UNITS[units]
+    verts, faces, cols, closed = [], [], [], True
+    offset = 0
+    for g in geoms:
+        verts.append(np.asarray(g.vertices, np.float64) @ rot.T)
+        faces.append(np.asarray(g.faces, np.int64) + offset)
+        cols.append(_face_colours(g, color))
+        offset += len(g.vertices)
+        closed = closed and bool(g.is_volume)
+    v = np.concatenate(verts)
+    f = np.concatenate(faces)
+    if not np.isfinite(v).all():
+        raise UserError(f"mesh file {str(path)!r} has vertices that are not finite numbers")
+    extent = float((v.max(axis=0) - v.min(axis=0)).max())
+    if extent > MAX_EXTENT_M:
+        raise UserError(
+            f"mesh {str(path)!r} is {extent:.4g} m across read in {units}, more than 1 km: "
+            f"wrong units? try --units {'mm' if units != 'mm' else 'mm (or rescale the file)'}")
+    if extent < MIN_EXTENT_M:
+        raise UserError(
+            f"mesh {str(path)!r} is {extent:.3g} m across read in {units}, under 1 mm: "
+            f"wrong units? try --units {'m' if units != 'm' else 'm (or rescale the file)'}")
+    height = float(v[:, 2].max() - v[:, 2].min())
+    if waterline is None:
+        wl = float(v[:, 2].min()) + DEFAULT_WATERLINE_FRACTION * height
+    else:
+        if not math.isfinite(waterline) or not 0 <= waterline <= height:
+            raise UserError(f"--waterline {waterline} is outside the mesh: use a height in "
+                            f"[0, {height:.4g}] m above its lowest point")
+        wl = float(v[:, 2].min()) + waterline
+    v, wl = centred(v, wl)
+    return ColoredMesh(v, f, np.concatenate(cols), wl, safe_name(path), closed=closed)
+
+
+def _read_geometries(path: Path, suffix: str) -> list:
+    """The triangle meshes in a file, scene transforms applied; UserError if unreadable."""
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(path), file_type=suffix[1:], process=False)
+    except Exception as exc:  # trimesh raises many kinds on bad bytes
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UserError(f"cannot read mesh file {str(path)!r}: {reason[:200]}") from None
+    if isinstance(loaded, trimesh.Scene):
+        geoms = []
+        for node in loaded.graph.nodes_geometry:
+            transform, name = loaded.graph[node]
+            g = loaded.geometry.get(name)
+            if isinstance(g, trimesh.Trimesh) and len(g.faces):
+                g = g.copy()
+                g.apply_transform(transform)
+                geoms.append(g)
+        return geoms
+    if isinstance(loaded, trimesh.Trimesh):
+        return [loaded] if len(loaded.faces) else []
+    return []
