@@ -26,9 +26,12 @@ import hashlib
 import json
 import math
 import os
+import shlex
+import signal
 import sys
 import time
 import zipfile
+import zlib
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
@@ -78,7 +81,10 @@ class AtlasConfig:
             raise UserError(f"--supersample {self.supersample} is out of range: use 1 to 16")
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        # equal grids hash equally whether given as ints (Python) or floats (command line)
+        d["grid"] = {k: float(v) for k, v in d["grid"].items()}
+        return d
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,19 +122,23 @@ class Atlas:
 # --------------------------------------------------------------------------- building
 
 def metres_per_pixel(mesh: ColoredMesh, config: AtlasConfig) -> float:
-    """Pixel pitch so the mesh fits its canvas at every pose and tilt, with a 3 % margin."""
+    """Pixel pitch so the mesh fits its canvas at every pose and tilt, with a 3 % margin
+    and at least one empty pixel on each side (the 3 % alone is under a pixel below ~70 px)."""
     pivot = np.array([0.0, 0.0, mesh.waterline])
     radius = 0.0
     for roll, pitch in config.grid.tilts():
         v = (mesh.vertices - pivot) @ tilt_matrix(roll, pitch).T + pivot
         radius = max(radius, float(np.linalg.norm(v, axis=1).max()))
-    return 2.0 * radius * 1.03 / config.size
+    return 2.0 * radius * max(1.03 / config.size, 1.01 / (config.size - 2))
 
 
 _WORKER: dict = {}
 
 
-def _init_worker(mesh: ColoredMesh, size: int, mpp: float, ss: int) -> None:
+def _init_worker(mesh: ColoredMesh, size: int, mpp: float, ss: int,
+                 subprocess: bool = False) -> None:
+    if subprocess:  # Ctrl-C is the parent's to handle: no traceback from every worker
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER.update(mesh=mesh, size=size, mpp=mpp, ss=ss)
 
 
@@ -156,10 +166,13 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
             sprites.append(_render_pose(p))
             bar.update()
     else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=args) as ex:
+        ex = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(*args, True))
+        try:
             for s in ex.map(_render_pose, list(poses), chunksize=4):
                 sprites.append(s)
                 bar.update()
+        finally:  # on Ctrl-C or an error, do not wait for the remaining poses
+            ex.shutdown(wait=False, cancel_futures=True)
     bar.close()
     encoded = _encode(poses, sprites)
     index = _index(mesh, config, mpp, poses)
@@ -272,12 +285,15 @@ def read_index(path: str | Path) -> dict:
     """The atlas index (json) for ``path``; AtlasError if missing, corrupt or of another version."""
     npz, idx = _resolve(path)
     how = _how_to_rebuild(None)
-    if not idx.exists():
+    if not idx.is_file():
         raise AtlasError(f"no atlas index {str(idx)!r}: {how}")
     try:
         index = json.loads(idx.read_text())
         if not isinstance(index, dict):
             raise ValueError("not an object")
+    except OSError as exc:
+        raise AtlasError(f"atlas index {str(idx)!r} cannot be read ({exc.strerror}): "
+                         f"{how}") from None
     except (ValueError, UnicodeDecodeError) as exc:
         raise AtlasError(f"atlas index {str(idx)!r} is corrupt ({exc}): {how}") from None
     how = _how_to_rebuild(index)
@@ -287,6 +303,13 @@ def read_index(path: str | Path) -> dict:
         raise AtlasError(
             f"atlas {str(idx)!r} has format version {index.get('format_version')!r}, this "
             f"sdcomp {__version__} reads version {FORMAT_VERSION}: {how}")
+    try:
+        len(index["poses"]), int(index["size_px"]), int(index["supersample"])
+        float(index["metres_per_pixel"])
+        str(index["mesh"]["name"]), str(index["mesh"]["hash"]), int(index["mesh"]["triangles"])
+    except (KeyError, TypeError, ValueError):
+        raise AtlasError(f"atlas index {str(idx)!r} lacks fields or has wrong types: "
+                         f"{how}") from None
     return index
 
 
@@ -305,21 +328,20 @@ def load_atlas(path: str | Path, verify: bool = True) -> Atlas:
         raise AtlasError(f"atlas data {str(npz)!r} is corrupt or truncated "
                          f"(checksum differs from its index): {how}")
     try:
-        with np.load(npz, allow_pickle=False) as data:
+        data = np.load(npz, allow_pickle=False)
+        if not isinstance(data, np.lib.npyio.NpzFile):  # a bare .npy array, not an archive
+            raise ValueError("not an npz archive")
+        with data:
             arrays = {k: data[k] for k in ("poses", "alpha", "albedo", "normal", "height")}
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, zlib.error,
+            NotImplementedError) as exc:
         raise AtlasError(f"atlas data {str(npz)!r} cannot be read ({exc}): {how}") from None
     _check_arrays(arrays, index, npz, how)
     return _decode(index.get("name", npz.stem), arrays, index)
 
 
 def _check_arrays(arrays: dict, index: dict, npz: Path, how: str) -> None:
-    try:
-        p = len(index["poses"])
-        s = int(index["size_px"])
-        float(index["metres_per_pixel"])
-    except (KeyError, TypeError, ValueError):
-        raise AtlasError(f"atlas index for {str(npz)!r} lacks fields: {how}") from None
+    p, s = len(index["poses"]), int(index["size_px"])  # fields checked by read_index
     want = {"poses": ((p, 4), np.float64), "alpha": ((p, s, s), np.uint8),
             "albedo": ((p, s, s, 3), np.uint8), "normal": ((p, s, s, 3), np.int8),
             "height": ((p, s, s), np.float16)}
@@ -434,22 +456,32 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_GRID_FLAGS = (("max off-nadir", "max_off_nadir"), ("off-nadir step", "off_nadir_step"),
+               ("max error", "max_error"), ("tilt max", "tilt_max"), ("tilt step", "tilt_step"))
+
+
 def _config_from_args(args: argparse.Namespace) -> AtlasConfig:
     try:
         grid = PoseGrid(max_off_nadir=args.max_off_nadir, off_nadir_step=args.off_nadir_step,
                         max_error=args.max_error, tilt_max=args.tilt_max,
                         tilt_step=args.tilt_step)
     except ValueError as exc:
-        raise UserError(str(exc)) from None
+        msg = str(exc)
+        for text, opt in _GRID_FLAGS:  # name the offending flag, as the other messages do
+            if msg.startswith(text):
+                msg = f"--{opt.replace('_', '-')}{msg[len(text):]}"
+                break
+        raise UserError(msg) from None
     return AtlasConfig(size=args.size, supersample=args.supersample, grid=grid)
 
 
 def _rebuild_command(spec: MeshSpec, args: argparse.Namespace) -> str:
-    parts = ["python -m sdcomp.atlas build", f"--mesh {spec.source}", f"--out {args.out}"]
+    q = shlex.quote
+    parts = ["python -m sdcomp.atlas build", f"--mesh {q(spec.source)}", f"--out {q(args.out)}"]
     if not spec.is_builtin:
         parts += [f"--units {spec.units}", f"--up {spec.up}"]
         if args.color:
-            parts.append(f"--color {args.color}")
+            parts.append(f"--color {q(args.color)}")
         if spec.waterline is not None:
             parts.append(f"--waterline {spec.waterline}")
     defaults = build_parser()._subparsers._group_actions[0].choices["build"]  # type: ignore
@@ -485,6 +517,19 @@ def info(path: str | Path) -> str:
     ])
 
 
+def _check_out_dir(out: Path, flag: str = "--out") -> None:
+    """UserError unless ``out`` is, or can be created as, a writable folder."""
+    probe = out
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UserError(f"{flag} {str(out)!r}: {str(probe)!r} is a file, not a folder")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise UserError(f"{flag} {str(out)!r}: folder {str(probe)!r} is not writable")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "info":
@@ -496,8 +541,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     spec = mesh_spec_from_args(args)
     mesh = spec.load()
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {args.out!r} is a file, not a folder")
+    _check_out_dir(out)
     t0 = time.perf_counter()
     atlas, built = ensure_atlas(mesh, config, out, force=args.force, workers=args.workers,
                                 rebuild_command=_rebuild_command(spec, args))
