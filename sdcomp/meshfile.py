@@ -8,6 +8,7 @@ caller's to state; the result is in metres, z up, centred on its bounding box.
 
 from __future__ import annotations
 
+import io
 import math
 import re
 from pathlib import Path
@@ -18,6 +19,7 @@ from .coloredmesh import ColoredMesh, centred
 from .errors import UserError
 
 SUPPORTED = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
+_TEXT_FORMATS = (".stl", ".obj", ".off")  # may be text in a non-UTF-8 encoding
 UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}
 UP_AXES = ("auto", "x", "y", "z", "-x", "-y", "-z")
 DEFAULT_COLOR = (170, 170, 170)
@@ -109,30 +111,34 @@ def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
     if not geoms:
         raise UserError(f"mesh file {str(path)!r} contains no triangles")
 
+    import trimesh
+
     if up == "auto":
         up = "y" if suffix in (".glb", ".gltf") else "z"
     rot = _up_rotation(up) * UNITS[units]
     verts, faces, cols, closed = [], [], [], True
     offset = 0
     for g in geoms:
+        if not np.isfinite(np.asarray(g.vertices, np.float64)).all():
+            raise UserError(f"mesh file {str(path)!r} has vertices that are not finite numbers")
         verts.append(np.asarray(g.vertices, np.float64) @ rot.T)
         faces.append(np.asarray(g.faces, np.int64) + offset)
         cols.append(_face_colours(g, color))
         offset += len(g.vertices)
-        closed = closed and bool(g.is_volume)
+        # closed (back faces may be culled) only if it is a proper volume once duplicate
+        # vertices are merged (STL, for one, stores every triangle's corners separately)
+        closed = closed and bool(trimesh.Trimesh(g.vertices, g.faces, process=True).is_volume)
     v = np.concatenate(verts)
     f = np.concatenate(faces)
-    if not np.isfinite(v).all():
-        raise UserError(f"mesh file {str(path)!r} has vertices that are not finite numbers")
     extent = float((v.max(axis=0) - v.min(axis=0)).max())
     if extent > MAX_EXTENT_M:
-        raise UserError(
-            f"mesh {str(path)!r} is {extent:.4g} m across read in {units}, more than 1 km: "
-            f"wrong units? try --units {'mm' if units != 'mm' else 'mm (or rescale the file)'}")
+        fix = "try --units mm" if units != "mm" else "even in mm it is too large: rescale the file"
+        raise UserError(f"mesh {str(path)!r} is {extent:.4g} m across read in {units}, "
+                        f"more than 1 km: wrong units? {fix}")
     if extent < MIN_EXTENT_M:
-        raise UserError(
-            f"mesh {str(path)!r} is {extent:.3g} m across read in {units}, under 1 mm: "
-            f"wrong units? try --units {'m' if units != 'm' else 'm (or rescale the file)'}")
+        fix = "try --units m" if units != "m" else "even in m it is too small: rescale the file"
+        raise UserError(f"mesh {str(path)!r} is {extent:.3g} m across read in {units}, "
+                        f"under 1 mm: wrong units? {fix}")
     height = float(v[:, 2].max() - v[:, 2].min())
     if waterline is None:
         wl = float(v[:, 2].min()) + DEFAULT_WATERLINE_FRACTION * height
@@ -150,9 +156,21 @@ def _read_geometries(path: Path, suffix: str) -> list:
     import trimesh
 
     try:
-        loaded = trimesh.load(str(path), file_type=suffix[1:], process=False)
+        try:
+            loaded = trimesh.load(str(path), file_type=suffix[1:], process=False)
+        except ImportError:
+            # trimesh decodes text that is not UTF-8 with charset_normalizer, an optional
+            # package: read such text as Latin-1 (any byte is a character) instead
+            if suffix not in _TEXT_FORMATS:
+                raise
+            text = path.read_bytes().decode("latin-1").encode("utf-8")
+            loaded = trimesh.load(io.BytesIO(text), file_type=suffix[1:], process=False,
+                                  resolver=trimesh.resolvers.FilePathResolver(str(path)))
     except Exception as exc:  # trimesh raises many kinds on bad bytes
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if suffix == ".gltf" and isinstance(exc, KeyError):
+            reason = (f"not glTF JSON, or a file it refers to is missing "
+                      f"({exc.args[0] if exc.args else '?'})")
         raise UserError(f"cannot read mesh file {str(path)!r}: {reason[:200]}") from None
     if isinstance(loaded, trimesh.Scene):
         geoms = []
