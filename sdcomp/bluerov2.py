@@ -118,14 +118,14 @@ def _side_panels(dx: float) -> list[Part]:
     return parts
 
 
-def _bottom_plate(dx: float) -> list[Part]:
-    """Bottom plate with three skids under it and, on the standard, openings under the
-    vertical thrusters."""
+def _bottom_plate(dx: float, thruster_openings: bool) -> list[Part]:
+    """Bottom plate with three skids under it and, where ``thruster_openings`` (the
+    standard), openings under the central vertical thrusters."""
     plate = _plate_xy(_rounded_rect(-0.140, 0.110, -0.160, 0.160, 0.010), -0.1425, 0.015)
     skids = [_box([0.267, w, 0.012], [-0.0145, y, -0.1527])
              for y, w in ((-0.135, 0.065), (0.0, 0.050), (0.135, 0.065))]
     body = m3.Manifold.batch_boolean([plate, *skids], m3.OpType.Add)
-    if dx == 0.0:
+    if thruster_openings:
         holes = [_along_z(0.046, -0.2, 0.0, -0.013, y) for y in (-0.11, 0.11)]
         body = body - m3.Manifold.batch_boolean(holes, m3.OpType.Add)
     return [(body.translate([dx, 0, 0]), BLACK)]
@@ -162,7 +162,7 @@ def _foam(heavy: bool, dx: float) -> list[Part]:
     return parts
 
 
-def _electronics_tube(dx: float) -> list[Part]:
+def _electronics_tube() -> list[Part]:
     z, r = 0.022, 0.057
     tube = _along_x(r, -0.151, 0.128, 0.0, z)
     front_flange = _along_x(r + 0.0025, 0.128, 0.147, 0.0, z)
@@ -179,7 +179,7 @@ def _electronics_tube(dx: float) -> list[Part]:
     ]
 
 
-def _battery_tube(dx: float) -> list[Part]:
+def _battery_tube() -> list[Part]:
     z, r = -0.085, 0.045
     body = _along_x(r, -0.117, 0.077, 0.0, z)
     caps = _along_x(r + 0.002, -0.131, -0.117, 0.0, z) + _along_x(r + 0.002, 0.077, 0.091, 0.0, z)
@@ -273,10 +273,10 @@ def build(variant: str = "bluerov2") -> ColoredMesh:
     dx = 0.0167 if heavy else 0.0
     parts: list[Part] = []
     parts += _side_panels(dx)
-    parts += _bottom_plate(dx)
+    parts += _bottom_plate(dx, thruster_openings=not heavy)
     parts += _decks((0.11, -0.14), dx)
     parts += _foam(heavy, dx)
-    parts += [(m.translate([dx, 0, 0]), c) for m, c in _electronics_tube(dx) + _battery_tube(dx)]
+    parts += [(m.translate([dx, 0, 0]), c) for m, c in _electronics_tube() + _battery_tube()]
     parts += _lights(dx)
     if heavy:
         parts += _horizontal_thrusters((0.136 - dx, -0.146 - dx), dx)

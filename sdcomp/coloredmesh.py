@@ -76,13 +76,6 @@ class ColoredMesh:
             self._hash.append(h.hexdigest())
         return self._hash[0]
 
-    def face_normals(self) -> np.ndarray:
-        """(F, 3) float64 unit normals of the faces (zero for degenerate faces)."""
-        tri = self.vertices[self.faces]
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        norm = np.linalg.norm(n, axis=1, keepdims=True)
-        return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
-
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` with face colours (for export and viewing)."""
         import trimesh
