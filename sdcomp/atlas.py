@@ -54,6 +54,7 @@ FORMAT = "sdcomp-atlas"
 FORMAT_VERSION = 1
 DEFAULT_OUT = "sprites"
 SHEET_SUN = (50.0, 135.0)  # elevation, azimuth (degrees) of the contact sheet's sun
+SHEET_BACKGROUND = (70, 90, 105)  # sRGB behind the contact sheet's sprites
 
 
 class AtlasError(UserError):
@@ -174,21 +175,25 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
         finally:  # on Ctrl-C or an error, do not wait for the remaining poses
             ex.shutdown(wait=False, cancel_futures=True)
     bar.close()
-    encoded = _encode(poses, sprites)
+    encoded = _encode(poses, *(np.stack([getattr(s, k) for s in sprites])
+                               for k in ("alpha", "albedo", "normal", "height")))
     index = _index(mesh, config, mpp, poses)
     return _decode(mesh.name, encoded, index)
 
 
-def _encode(poses: np.ndarray, sprites: list[Sprite]) -> dict[str, np.ndarray]:
-    """The on-disk arrays (see the module docstring)."""
-    alpha = np.stack([s.alpha for s in sprites])
+def _encode(poses: np.ndarray, alpha: np.ndarray, albedo: np.ndarray, normal: np.ndarray,
+            height: np.ndarray) -> dict[str, np.ndarray]:
+    """The on-disk arrays (see the module docstring) from stacked (P, S, S, ...) arrays.
+
+    Encoding decoded arrays again gives the same bytes: saving a loaded atlas is lossless.
+    """
     return {
         "poses": poses.astype(np.float64),
         # round up from zero so that a single covered sub-pixel never rounds to 0
         "alpha": np.where(alpha > 0, np.maximum(np.rint(alpha * 255), 1), 0).astype(np.uint8),
-        "albedo": np.stack([s.albedo for s in sprites]),
-        "normal": np.rint(np.stack([s.normal for s in sprites]) * 127).astype(np.int8),
-        "height": np.stack([s.height for s in sprites]).astype(np.float16),
+        "albedo": albedo.astype(np.uint8),
+        "normal": np.rint(normal * 127).astype(np.int8),
+        "height": height.astype(np.float16),
     }
 
 
@@ -253,7 +258,7 @@ def save_atlas(atlas: Atlas, out_dir: str | Path, rebuild_command: str = "") -> 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     npz, idx, _ = atlas_paths(out, atlas.name)
-    arrays = _encode(atlas.poses, [atlas.sprite(i) for i in range(len(atlas))])
+    arrays = _encode(atlas.poses, atlas.alpha, atlas.albedo, atlas.normal, atlas.height)
     with atomic_path(npz) as tmp:
         with open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -392,9 +397,9 @@ def contact_sheet(atlas: Atlas, cell: int = 96, columns: int = 20,
     n = len(atlas)
     rows = math.ceil(n / columns)
     sheet = np.empty((rows * cell, columns * cell, 3), np.uint8)
-    sheet[:] = (70, 90, 105)
+    sheet[:] = SHEET_BACKGROUND
     sun_w = sun_direction(*sun)
-    bg = np.array((70, 90, 105), np.float32)
+    bg = np.array(SHEET_BACKGROUND, np.float32)
     for i in range(n):
         theta, phi = atlas.poses[i, 0], atlas.poses[i, 1]
         s_cam = view_basis(theta, phi) @ sun_w

@@ -21,7 +21,7 @@ from . import bluerov2
 from .coloredmesh import ColoredMesh
 from .errors import UserError, run_cli
 from .fileio import atomic_write_bytes
-from .meshfile import UNITS, UP_AXES, load_mesh_file
+from .meshfile import UNITS, UP_AXES, check_read_options, load_mesh_file
 
 BUILTIN = bluerov2.VARIANTS
 EXPORT_FORMATS = (".ply", ".glb", ".obj")
@@ -62,10 +62,7 @@ class MeshSpec:
     waterline: float | None = None
 
     def __post_init__(self) -> None:
-        if self.units not in UNITS:
-            raise UserError(f"--units {self.units!r} is not a unit; use one of {', '.join(UNITS)}")
-        if self.up not in UP_AXES:
-            raise UserError(f"--up {self.up!r} is not an axis; use one of {', '.join(UP_AXES)}")
+        check_read_options(self.units, self.up)
         if self.waterline is not None and not np.isfinite(self.waterline):
             raise UserError(f"--waterline {self.waterline} must be a finite number of metres")
 

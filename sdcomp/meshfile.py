@@ -76,6 +76,14 @@ def _face_colours(geom, override: tuple[int, int, int] | None) -> np.ndarray:
     return np.tile(np.array(DEFAULT_COLOR, np.uint8), (nf, 1))
 
 
+def check_read_options(units: str, up: str) -> None:
+    """UserError unless ``units`` and ``up`` are ones :func:`load_mesh_file` understands."""
+    if units not in UNITS:
+        raise UserError(f"--units {units!r} is not a unit; use one of {', '.join(UNITS)}")
+    if up not in UP_AXES:
+        raise UserError(f"--up {up!r} is not an axis; use one of {', '.join(UP_AXES)}")
+
+
 def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
                    color: tuple[int, int, int] | None = None,
                    waterline: float | None = None) -> ColoredMesh:
@@ -95,10 +103,7 @@ def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
             over 1 km or under 1 mm (the message suggests the right ``--units``).
     """
     path = Path(path)
-    if units not in UNITS:
-        raise UserError(f"--units {units!r} is not a unit; use one of {', '.join(UNITS)}")
-    if up not in UP_AXES:
-        raise UserError(f"--up {up!r} is not an axis; use one of {', '.join(UP_AXES)}")
+    check_read_options(units, up)
     suffix = path.suffix.lower()
     if not path.exists():
         raise UserError(f"mesh file {str(path)!r} does not exist")
