@@ -1,0 +1,115 @@
+"""A fast encoder for 16-bit grayscale PNGs (instance-id masks), and a checked decoder.
+
+OpenCV's PNG writer spends milliseconds on a small uint16 mask even at compression 0; this
+module writes the few bytes a PNG needs itself and leaves the work to one zlib stream:
+
+* signature, ``IHDR`` (bit depth 16, colour type 0 = grayscale, no interlace),
+* ``IDAT`` chunks holding the zlib stream of the scanlines, each a filter byte 0 (None)
+  followed by the row's samples as big-endian uint16,
+* ``IEND``.
+
+The scanlines are built with numpy in bands of rows (so a 20-megapixel mask never needs one
+40 MB buffer) and fed to ``zlib.compressobj(1, DEFLATED, 15, 4, Z_DEFAULT_STRATEGY)``.
+Measured choices (416x416 and 5472x3648 masks, mostly zero with a few id rectangles):
+
+* level 1 default strategy compresses such masks ~170x; ``Z_RLE`` is no faster here and gives
+  files 1.5-2.5x bigger; higher levels are slower for little gain (level 6 is ~2x slower);
+* ``memLevel`` 4 instead of 9 makes a small mask up to about twice as fast (zlib's per-stream
+  set-up dominates at 416x416) and costs ~1-2% in size.
+
+The output depends only on the mask and ``level`` (byte-identical for the same input).
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+import zlib
+
+import numpy as np
+
+SIGNATURE = b"\x89PNG\r\n\x1a\n"
+MEM_LEVEL = 4  # zlib memLevel: see the module docstring
+BAND_BYTES = 1 << 20  # raw scanline bytes per band fed to zlib
+IDAT_MAX = 1 << 24  # bytes of compressed data per IDAT chunk at most (the format allows 2**31-1)
+
+_scratch = threading.local()  # per-thread reusable buffers: fresh ones cost page faults
+
+
+def _buffers(rows: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """A (rows, 2w+1) uint8 scanline buffer with filter bytes 0, and a (rows, w) '>u2' buffer.
+
+    Views of per-thread flat buffers that only grow, so masks of changing sizes reuse them.
+    """
+    n_raw, n_be = rows * (2 * w + 1), rows * w
+    raw, be = getattr(_scratch, "raw", None), getattr(_scratch, "be", None)
+    if raw is None or raw.size < n_raw:
+        raw = _scratch.raw = np.empty(n_raw, np.uint8)
+    if be is None or be.size < n_be:
+        be = _scratch.be = np.empty(n_be, ">u2")
+    raw2d = raw[:n_raw].reshape(rows, 2 * w + 1)
+    raw2d[:, 0] = 0  # filter type None on every row
+    return raw2d, be[:n_be].reshape(rows, w)
+
+
+def _chunk(kind: bytes, data: bytes) -> bytes:
+    return (struct.pack(">I", len(data)) + kind + data
+            + struct.pack(">I", zlib.crc32(data, zlib.crc32(kind))))
+
+
+def encode_png16(mask: np.ndarray, level: int = 1) -> bytes:
+    """Encode a 2-D uint16 array as a 16-bit grayscale PNG and return its bytes.
+
+    ``level`` is the zlib level (0-9); 1 is fastest with good compression of
+    mostly-zero masks. Raises ValueError for a mask that is not 2-D, not uint16, or empty.
+    """
+    mask = np.asarray(mask)
+    if mask.ndim != 2:
+        raise ValueError(f"mask must be 2-D (H, W), got shape {mask.shape}")
+    if mask.dtype != np.uint16:
+        raise ValueError(f"mask must be uint16, got {mask.dtype}")
+    h, w = mask.shape
+    if h == 0 or w == 0:
+        raise ValueError(f"mask must not be empty, got shape {mask.shape}")
+    if h >= 2**31 or w >= 2**31:
+        raise ValueError(f"mask too large for PNG: shape {mask.shape}")
+    if not isinstance(level, (int, np.integer)) or not 0 <= level <= 9:
+        raise ValueError(f"level must be an integer 0-9, got {level!r}")
+
+    row_bytes = 2 * w + 1
+    band = max(1, min(h, BAND_BYTES // row_bytes))
+    comp = zlib.compressobj(int(level), zlib.DEFLATED, 15, MEM_LEVEL, zlib.Z_DEFAULT_STRATEGY)
+    raw, be = _buffers(band, w)
+    parts = []
+    for y in range(0, h, band):  # one pass for masks up to ~1 MB of scanlines
+        rows = mask[y:y + band]
+        n = rows.shape[0]
+        np.copyto(be[:n], rows)  # to big-endian (aligned, fast)
+        raw[:n, 1:] = be[:n].view(np.uint8)
+        parts.append(comp.compress(raw[:n]))
+    parts.append(comp.flush())
+    stream = b"".join(parts)
+
+    ihdr = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)
+    chunks = [SIGNATURE, _chunk(b"IHDR", ihdr)]
+    for i in range(0, max(len(stream), 1), IDAT_MAX):
+        chunks.append(_chunk(b"IDAT", stream[i:i + IDAT_MAX]))
+    chunks.append(_chunk(b"IEND", b""))
+    return b"".join(chunks)
+
+
+def decode_png16(data: bytes) -> np.ndarray:
+    """Decode PNG bytes that hold a 16-bit grayscale image into an (H, W) uint16 array.
+
+    Raises ValueError when the bytes are not a readable PNG or not 16-bit single-channel.
+    """
+    import cv2
+
+    buf = np.frombuffer(data, np.uint8)
+    img = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED) if buf.size else None
+    if img is None:
+        raise ValueError("could not decode PNG data")
+    if img.dtype != np.uint16 or img.ndim != 2:
+        raise ValueError(f"expected a 16-bit grayscale PNG, got dtype {img.dtype} "
+                         f"and shape {img.shape}")
+    return img

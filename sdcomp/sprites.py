@@ -1,0 +1,76 @@
+"""Atlas sprites ready for compositing: pose lookup and premultiplied mip levels.
+
+A :class:`SpriteSource` wraps an :class:`~sdcomp.atlas.Atlas`. For pose ``p`` and mip level
+``L`` it gives a (S >> L, S >> L, 8) float32 array of premultiplied channels
+
+    alpha, alpha * albedo (linear RGB, 3), alpha * normal (camera frame, 3), alpha * height
+
+box-filtered from the atlas resolution, so that any level can be relit and then resampled
+without dark fringes. Levels are made on first use and kept (the small ones are what a
+416-pixel image needs; the large ones, for full-resolution frames, are kept in a bounded
+cache).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import cv2
+import numpy as np
+
+from .atlas import Atlas
+from .poses import view_basis, view_direction
+from .shading import srgb_to_linear
+
+_LARGE_CACHE = 96  # entries of levels 0 and 1 kept (each up to S*S*32 bytes)
+
+
+class SpriteSource:
+    """Sprites of one mesh, by pose and mip level (see the module docstring)."""
+
+    def __init__(self, atlas: Atlas):
+        self.atlas = atlas
+        self.name = atlas.name
+        self.metres_per_pixel = float(atlas.metres_per_pixel)
+        self.size = int(atlas.alpha.shape[1])
+        self.waterline = float(atlas.index.get("mesh", {}).get("waterline_m", 0.0))
+        poses = atlas.poses
+        self.directions = view_direction(poses[:, 0], poses[:, 1])  # (P, 3) body frame
+        self.bases = np.stack([view_basis(o, a) for o, a in poses[:, :2]])  # (P, 3, 3)
+        self.max_level = max(0, int(np.log2(self.size)) - 1)
+        self._small: dict[tuple[int, int], np.ndarray] = {}
+        self._large: OrderedDict[tuple[int, int], np.ndarray] = OrderedDict()
+        self._lut = srgb_to_linear(np.arange(256, dtype=np.float32) / 255.0).astype(np.float32)
+
+    def nearest(self, direction_body: np.ndarray) -> int:
+        """Index of the stored pose whose view direction (object towards camera, body
+        frame, unit (3,)) is nearest to ``direction_body``."""
+        return int(np.argmax(self.directions @ direction_body))
+
+    def level(self, pose: int, level: int) -> np.ndarray:
+        """(S >> level, S >> level, 8) float32 premultiplied channels of ``pose``."""
+        key = (pose, level)
+        cache = self._small if level >= 2 else self._large
+        hit = cache.get(key)
+        if hit is not None:
+            if cache is self._large:
+                self._large.move_to_end(key)
+            return hit
+        base = self._base(pose)
+        n = self.size >> level
+        out = base if level == 0 else cv2.resize(base, (n, n), interpolation=cv2.INTER_AREA)
+        out = np.ascontiguousarray(out, dtype=np.float32)
+        cache[key] = out
+        if cache is self._large and len(self._large) > _LARGE_CACHE:
+            self._large.popitem(last=False)
+        return out
+
+    def _base(self, pose: int) -> np.ndarray:
+        a = self.atlas
+        alpha = a.alpha[pose].astype(np.float32)
+        out = np.empty((self.size, self.size, 8), np.float32)
+        out[..., 0] = alpha
+        out[..., 1:4] = self._lut[a.albedo[pose]] * alpha[..., None]
+        out[..., 4:7] = a.normal[pose] * alpha[..., None]
+        out[..., 7] = a.height[pose] * alpha
+        return out

@@ -1,0 +1,239 @@
+"""Procedural water: colours, turbidity, wave and sea-floor textures, and the light model.
+
+Everything here is a pure function of its arguments. Conventions:
+
+- Colours are sRGB uint8 (R, G, B) unless a name says ``linear``.
+- Texture tiles are periodic, stored padded to twice their period (so any crop up to one
+  period long starts anywhere in the first period) and as a mip pyramid (level ``k`` has a
+  pixel pitch of ``pitch * 2**k`` metres).
+- Wave tiles have 4 uint8 channels: slope along x and y (``128 + 40 * slope / sd``), crest
+  height (0..255, high on crests: whitecaps), and sparkle (0..255, high on steep facets that
+  flash in the sun).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .errors import UserError
+
+#: the paper's water colours: sRGB of deep, fully turbid water seen from above
+WATER_COLORS: dict[str, tuple[int, int, int]] = {
+    "brown": (104, 84, 52),
+    "blue": (24, 66, 104),
+    "green": (42, 90, 66),
+}
+REFRACTIVE_INDEX = 1.333
+ATTENUATION_CLEAR = 0.05  # 1/m at turbidity 0 (clear ocean: visibility ~ 30 m)
+ATTENUATION_TURBID = 5.0  # 1/m at turbidity 1 (silty river: visibility ~ 0.3 m)
+SLOPE_SCALE = 40.0  # uint8 units per standard deviation of a slope channel
+SKY_ZENITH = (0.16, 0.30, 0.62)  # linear RGB of the clear sky overhead
+SKY_HORIZON = (0.62, 0.70, 0.80)  # linear RGB of the sky at the horizon
+
+
+def parse_water(text: str) -> tuple[str, tuple[int, int, int]]:
+    """A water colour: a preset name (``brown``, ``blue``, ``green``) or ``R,G,B`` 0-255.
+
+    Returns (name, sRGB); the name of an RGB colour is the text ``"R,G,B"``.
+    """
+    t = str(text).strip().lower()
+    if t in WATER_COLORS:
+        return t, WATER_COLORS[t]
+    parts = t.split(",")
+    try:
+        rgb = tuple(int(p) for p in parts)
+    except ValueError:
+        rgb = ()
+    if len(rgb) != 3 or not all(0 <= c <= 255 for c in rgb):
+        raise UserError(f"--water {text!r} is not a water colour: use "
+                        f"{', '.join(WATER_COLORS)} or R,G,B with 0-255 each")
+    return ",".join(map(str, rgb)), rgb  # type: ignore[return-value]
+
+
+def attenuation(turbidity: float) -> float:
+    """Beam attenuation coefficient (1/m) of water of ``turbidity`` in [0, 1]: log-linear
+    from :data:`ATTENUATION_CLEAR` to :data:`ATTENUATION_TURBID`."""
+    return ATTENUATION_CLEAR * (ATTENUATION_TURBID / ATTENUATION_CLEAR) ** float(turbidity)
+
+
+def refracted_cos(cos_incidence):
+    """Cosine of the refracted angle under water for light arriving at ``cos_incidence``."""
+    sin_i = np.sqrt(np.clip(1.0 - np.square(cos_incidence), 0.0, 1.0))
+    return np.sqrt(1.0 - np.square(sin_i / REFRACTIVE_INDEX))
+
+
+def fresnel(cos_incidence):
+    """Schlick's reflectance of the air-water surface for light at ``cos_incidence``."""
+    r0 = ((REFRACTIVE_INDEX - 1) / (REFRACTIVE_INDEX + 1)) ** 2
+    return r0 + (1 - r0) * np.power(1.0 - np.clip(cos_incidence, 0.0, 1.0), 5)
+
+
+def sky_linear(elevation_sin) -> np.ndarray:
+    """Linear sky radiance (..., 3) for directions with sine of elevation ``elevation_sin``."""
+    t = np.sqrt(np.clip(np.asarray(elevation_sin, np.float32), 0.0, 1.0))[..., None]
+    return np.asarray(SKY_HORIZON, np.float32) * (1 - t) + np.asarray(SKY_ZENITH,
+                                                                        np.float32) * t
+
+
+def slope_variance(wind: float) -> float:
+    """Cox-Munk mean-square slope of the sea surface at ``wind`` m/s."""
+    return 0.003 + 0.00512 * max(float(wind), 0.0)
+
+
+# --------------------------------------------------------------------------- textures
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """A periodic tile as a mip pyramid: ``levels[k]`` (2P_k, 2P_k, C) uint8 holds a tile of
+    period ``P_k = period >> k`` pixels, padded to twice the period; pixel pitch
+    ``pitch * 2**k`` metres."""
+
+    levels: tuple[np.ndarray, ...]
+    period: int
+    pitch: float
+
+    def view(self, x0: float, y0: float, width_m: float, height_m: float,
+             out_w: int, out_h: int) -> np.ndarray:
+        """The axis-aligned ground rectangle from (x0, y0) metres, ``width_m`` x
+        ``height_m``, resampled to (out_h, out_w, C) uint8 (wrapping periodically)."""
+        k = 0
+        while k + 1 < len(self.levels) and (max(width_m, height_m) / (self.pitch * 2 ** k)
+                                             > (self.period >> k)
+                                             or width_m / (self.pitch * 2 ** k) > 2 * out_w):
+            k += 1
+        tile = self.levels[k]
+        per = self.period >> k
+        px = self.pitch * 2 ** k
+        # whole-pixel crop (its size rounded: under half a pixel of scale error)
+        cw = int(min(max(round(width_m / px), 1), 2 * per))
+        ch = int(min(max(round(height_m / px), 1), 2 * per))
+        ix = min(int(x0 / px) % per, 2 * per - cw)
+        iy = min(int(y0 / px) % per, 2 * per - ch)
+        crop = tile[iy:iy + ch, ix:ix + cw]
+        interp = cv2.INTER_AREA if (cw > out_w or ch > out_h) else cv2.INTER_LINEAR
+        return cv2.resize(crop, (out_w, out_h), interpolation=interp)
+
+    def sample(self, x: np.ndarray, y: np.ndarray, pitch_m: float) -> np.ndarray:
+        """Texture at ground points ``x``, ``y`` (metres, any shape, float32) through the mip
+        level suited to a pixel footprint of ``pitch_m`` metres (perspective views)."""
+        k = int(np.clip(math.floor(math.log2(max(pitch_m / self.pitch, 1.0))), 0,
+                        len(self.levels) - 1))
+        per = self.period >> k
+        px = self.pitch * 2 ** k
+        tile = self.levels[k][:per, :per]
+        mx = ((np.asarray(x, np.float32) / px) % per).astype(np.float32)
+        my = ((np.asarray(y, np.float32) / px) % per).astype(np.float32)
+        return cv2.remap(tile, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+
+
+def _pyramid(tile: np.ndarray, pitch: float, min_period: int = 16) -> Texture:
+    levels = []
+    t = tile
+    period = tile.shape[0]
+    while True:
+        levels.append(np.ascontiguousarray(np.tile(t, (2, 2, 1))))
+        if t.shape[0] // 2 < min_period:
+            break
+        t = cv2.resize(t, (t.shape[1] // 2, t.shape[0] // 2), interpolation=cv2.INTER_AREA)
+        if t.ndim == 2:
+            t = t[..., None]
+    return Texture(tuple(levels), period, pitch)
+
+
+def _spectral_noise(rng: np.random.Generator, n: int, amplitude: np.ndarray) -> np.ndarray:
+    """Periodic real field (n, n) float64: white noise filtered by ``amplitude`` (n, n) in
+    the FFT domain, normalised to zero mean and unit standard deviation."""
+    white = rng.standard_normal((n, n))
+    f = np.fft.fft2(white) * amplitude
+    field = np.real(np.fft.ifft2(f))
+    field -= field.mean()
+    return field / max(field.std(), 1e-12)
+
+
+def wave_tile(seed: int, direction_deg: float, n: int = 512, pitch: float = 0.04) -> Texture:
+    """A periodic sea-surface tile: wind waves (a power-law spectrum, mostly along
+    ``direction_deg`` in the tile frame, x to the right, y down) plus a swell.
+
+    Returns a :class:`Texture` of 4 uint8 channels (see the module docstring).
+    """
+    rng = np.random.default_rng([seed, 7919, int(round(direction_deg * 10))])
+    k = np.fft.fftfreq(n, d=pitch)  # cycles per metre
+    kx, ky = np.meshgrid(k, k)
+    kk = np.hypot(kx, ky)
+    kk[0, 0] = 1.0
+    theta = math.radians(direction_deg)
+    cos_d = (kx * math.cos(theta) + ky * math.sin(theta)) / kk
+    spread = 0.35 + 0.65 * cos_d ** 2  # waves travel mostly along the wind
+    wind = kk ** -1.9 * spread * (kk > 1 / (n * pitch) * 1.5) * (kk < 4.0)
+    swell_k = 1.0 / (n * pitch / 3)  # three swell crests per period
+    swell = np.exp(-((kk - swell_k) / (0.35 * swell_k)) ** 2) * cos_d ** 8
+    swell *= wind.max() * 0.6
+    h = _spectral_noise(rng, n, np.sqrt(wind + swell))
+    gy, gx = np.gradient(h)
+    sd = max(np.std(gx), np.std(gy), 1e-12)
+    sx, sy = gx / sd, gy / sd
+    crest = np.clip((h - 0.5) / 2.5, 0, 1)
+    steep = np.hypot(sx, sy)
+    sparkle = np.clip((steep - 1.6) / 1.4, 0, 1) ** 2
+    tile = np.stack([128 + SLOPE_SCALE * sx, 128 + SLOPE_SCALE * sy, 255 * crest,
+                     255 * sparkle], axis=-1)
+    return _pyramid(np.clip(np.rint(tile), 0, 255).astype(np.uint8), pitch)
+
+
+def floor_tile(seed: int, rocks: float, n: int = 512, pitch: float = 0.04) -> Texture:
+    """A periodic sea-floor albedo tile (sRGB uint8, 3 channels): rippled sand with rocks
+    and debris covering about ``rocks`` (0..1) of the area."""
+    rng = np.random.default_rng([seed, 104729])
+    k = np.fft.fftfreq(n, d=pitch)
+    kx, ky = np.meshgrid(k, k)
+    kk = np.hypot(kx, ky)
+    kk[0, 0] = 1.0
+    coarse = _spectral_noise(rng, n, kk ** -1.6 * (kk > 0.1))
+    ripples = _spectral_noise(rng, n, np.exp(-((kk - 1.5) / 0.3) ** 2) * (np.abs(kx) > ky * 0))
+    sand = np.array([150, 134, 100], np.float32)
+    shade = 1.0 + 0.10 * coarse + 0.05 * ripples
+    img = sand[None, None, :] * shade[..., None]
+    if rocks > 0:
+        area = float(n * n) * float(rocks)
+        drawn = 0.0
+        canvas = np.zeros((n, n), np.float32)
+        colours = np.zeros((n, n, 3), np.float32)
+        while drawn < area:
+            r = rng.uniform(0.15, 0.9) / pitch  # radius in pixels
+            cx, cy = rng.uniform(0, n, 2)
+            ax, ay = r, r * rng.uniform(0.5, 1.0)
+            angle = rng.uniform(0, 180)
+            tone = rng.uniform(0.25, 0.65)
+            rgb = np.array([95, 90, 80], np.float32) * tone / 0.45
+            for dx in (-n, 0, n):  # draw wrapped copies so the tile stays periodic
+                for dy in (-n, 0, n):
+                    centre = (int(cx + dx), int(cy + dy))
+                    if -2 * r < centre[0] < n + 2 * r and -2 * r < centre[1] < n + 2 * r:
+                        cv2.ellipse(canvas, centre, (int(ax), int(ay)), angle, 0, 360, 1.0, -1)
+                        cv2.ellipse(colours, centre, (int(ax), int(ay)), angle, 0, 360,
+                                    rgb.tolist(), -1)
+            drawn += math.pi * ax * ay
+        rock_shade = 1.0 + 0.25 * coarse[..., None]
+        mask = cv2.GaussianBlur(canvas, (0, 0), 1.0)[..., None]
+        img = img * (1 - mask) + colours * rock_shade * mask
+    return _pyramid(np.clip(np.rint(img), 0, 255).astype(np.uint8), pitch)
+
+
+def land_tile(seed: int, n: int = 256, pitch: float = 0.25) -> Texture:
+    """A periodic land-cover tile (sRGB uint8, 3 channels): grass, scrub and bare soil."""
+    rng = np.random.default_rng([seed, 15485863])
+    k = np.fft.fftfreq(n, d=pitch)
+    kx, ky = np.meshgrid(k, k)
+    kk = np.hypot(kx, ky)
+    kk[0, 0] = 1.0
+    a = _spectral_noise(rng, n, kk ** -1.5 * (kk > 0.02))
+    b = _spectral_noise(rng, n, kk ** -0.8 * (kk > 0.02))
+    grass = np.array([70, 96, 48], np.float32)
+    soil = np.array([128, 110, 82], np.float32)
+    t = np.clip(0.5 + 0.35 * a, 0, 1)[..., None]
+    img = (grass * t + soil * (1 - t)) * (1 + 0.12 * b)[..., None]
+    return _pyramid(np.clip(np.rint(img), 0, 255).astype(np.uint8), pitch)

@@ -1,0 +1,319 @@
+"""Writing a dataset folder: images, masks, COCO, with workers, resume and atomic files.
+
+Layout of ``out``::
+
+    images/000000.jpg            the images (or .png), sRGB
+    masks/000000.png             16-bit instance ids (0 = none; k = annotation with
+                                 instance_id k of that image)
+    annotations/instances_train.json, annotations/instances_val.json   COCO
+    records.jsonl                one JSON line per finished image (the journal a resumed
+                                 run continues from; COCO files are made from it)
+    dataset.json                 config, package version, seed, status and counts
+
+Every file appears whole or not at all (temporary name, then rename). Image ``i`` depends
+only on (config, i), the journal is read back in index order, and nothing records times, so
+the same config gives byte-identical images, masks, COCO files and dataset.json whatever
+the number of workers and however often the run was interrupted and resumed.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from . import __version__
+from .coco import Journal, iter_records, mask_to_rle, read_journal, write_coco
+from .compositor import MASK_THRESHOLD
+from .config import GeneratorConfig
+from .errors import UserError
+from .fileio import atomic_write_bytes
+from .generator import DEFAULT_SPRITES, Generator, annotations, metadata
+from .pngio import encode_png16
+from .progress import Progress
+
+FORMAT = "sdcomp-dataset"
+FORMAT_VERSION = 1
+OURS = ("images", "masks", "annotations", "records.jsonl", "dataset.json")
+SPLIT_BLOCK = 100  # val images are exactly round(f * 100) of every 100 consecutive ones
+CHUNK = 32  # images per task handed to a worker
+CHECKPOINT_SECONDS = 60.0  # COCO files are rewritten at least this often during a run
+MASK_RULE = (f"a pixel belongs to an object when the object supplies at least "
+             f"{MASK_THRESHOLD:g} of its colour (coverage x water transmittance x what is "
+             f"not hidden by nearer objects), inside the frame")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run (does not change the output): folder, workers, resume/overwrite."""
+
+    out: Path
+    workers: int = 1
+    resume: bool = False
+    overwrite: bool = False
+    progress: bool | None = None
+    sprites_dir: Path = Path(DEFAULT_SPRITES)
+
+
+def split_of(seed: int, index: int, val_fraction: float) -> str:
+    """``"val"`` or ``"train"`` for image ``index``: in every block of 100 consecutive
+    images, exactly ``round(100 * val_fraction)`` chosen by a seeded permutation are val."""
+    block, pos = divmod(int(index), SPLIT_BLOCK)
+    k = int(round(val_fraction * SPLIT_BLOCK))
+    if k <= 0:
+        return "train"
+    perm = np.random.default_rng([int(seed), block, 0x5B11]).permutation(SPLIT_BLOCK)
+    return "val" if perm[pos] < k else "train"
+
+
+def image_name(index: int, ext: str) -> str:
+    return f"{index:06d}.{ext}"
+
+
+# --------------------------------------------------------------------------- one image
+
+def make_record(gen: Generator, index: int, out: Path) -> dict:
+    """Render image ``index``, write its image and mask files, return its journal record."""
+    config = gen.config
+    frame = gen.render(index)
+    q = frame.scene.effects.jpeg_quality
+    bgr = cv2.cvtColor(frame.image, cv2.COLOR_RGB2BGR)
+    if config.image_format == "jpg":
+        ok, data = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, q])
+    else:
+        ok, data = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:
+        raise RuntimeError(f"could not encode image {index}")
+    name = image_name(index, config.image_format)
+    mask_name = image_name(index, "png")
+    _write(out / "images" / name, data.tobytes())
+    _write(out / "masks" / mask_name, encode_png16(frame.instances))
+    anns = []
+    for ann, inst in zip(annotations(config, frame), frame.objects, strict=True):
+        x, y, w, h = ann["bbox"]
+        region = np.zeros(frame.instances.shape, bool)
+        region[y:y + h, x:x + w] = frame.instances[y:y + h, x:x + w] == inst.instance_id
+        rec = {"instance_id": ann["instance_id"], "category_id": ann["category_id"],
+               "bbox": ann["bbox"], "area": ann["area"], "segmentation": mask_to_rle(region),
+               "iscrowd": 0, "pose": ann["pose"]}
+        if inst.amodal is not None:
+            rec["amodal_segmentation"] = mask_to_rle(inst.amodal)
+            rec["amodal_area"] = inst.amodal_area
+            ys, xs = np.nonzero(inst.amodal)
+            rec["amodal_bbox"] = ([int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
+                                   int(ys.max() - ys.min() + 1)] if len(xs) else [0, 0, 0, 0])
+        anns.append(rec)
+    h, w = frame.instances.shape
+    image = {"id": index + 1, "file_name": name, "width": w, "height": h,
+             "mask_file": mask_name, "meta": metadata(frame)}
+    return {"index": index, "split": split_of(config.seed, index, config.val_fraction),
+            "image": image, "annotations": anns}
+
+
+def _write(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+    os.replace(tmp, path)
+
+
+# --------------------------------------------------------------------------- workers
+
+_WORKER: dict = {}
+
+
+def _init_worker(out: str) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and stops workers with SIGTERM
+    cv2.setNumThreads(1)
+    _WORKER["out"] = Path(out)
+
+
+def _work(indices: list[int]) -> list[dict]:
+    gen = _WORKER["gen"]
+    return [make_record(gen, i, _WORKER["out"]) for i in indices]
+
+
+def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> Iterable[list]:
+    """Records per chunk, in order, from this process or a pool of workers."""
+    if options.workers <= 1 or len(chunks) <= 1:
+        _WORKER["gen"] = gen
+        _WORKER["out"] = options.out
+        for c in chunks:
+            yield _work(c)
+        return
+    # fork shares the built generator (textures, sprites) with the workers for free
+    methods = mp.get_all_start_methods()
+    ctx = mp.get_context("fork" if "fork" in methods else "spawn")
+    _WORKER["gen"] = gen
+    with ctx.Pool(options.workers, initializer=_init_worker_with,
+                  initargs=(str(options.out), None if ctx.get_start_method() == "fork"
+                            else (gen.config, str(options.sprites_dir)))) as pool:
+        try:
+            yield from pool.imap(_work, chunks)
+        except BaseException:
+            pool.terminate()
+            raise
+
+
+def _init_worker_with(out: str, rebuild) -> None:
+    _init_worker(out)
+    if rebuild is not None:
+        config, sprites = rebuild
+        _WORKER["gen"] = Generator(config, sprites, progress=False)
+
+
+# --------------------------------------------------------------------------- the run
+
+def prepare_output(config: GeneratorConfig, options: RunOptions) -> set[int]:
+    """Check or clear the output folder; return the indices already done (resume)."""
+    out = options.out
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} is a file; give a folder")
+    entries = list(out.iterdir()) if out.exists() else []
+    if entries and not (options.resume or options.overwrite):
+        raise UserError(f"output folder {out} is not empty: add --resume to continue the "
+                        f"run that made it, or --overwrite to replace it")
+    if options.resume and options.overwrite:
+        raise UserError("--resume and --overwrite exclude each other; pick one")
+    done: set[int] = set()
+    if entries and options.overwrite:
+        for name in OURS:
+            p = out / name
+            if p.is_dir():
+                shutil.rmtree(p)
+            elif p.exists():
+                p.unlink()
+    elif entries and options.resume:
+        done = _resumable(config, out)
+    elif options.resume and not entries:
+        pass  # nothing to resume: a fresh run
+    try:
+        for sub in ("images", "masks", "annotations"):
+            (out / sub).mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UserError(f"--out {out}: cannot create the folder ({e.strerror})") from None
+    for sub in ("images", "masks"):
+        for tmp in (out / sub).glob(".*.tmp"):
+            tmp.unlink(missing_ok=True)
+    return done
+
+
+def _resumable(config: GeneratorConfig, out: Path) -> set[int]:
+    meta_path = out / "dataset.json"
+    try:
+        meta = json.loads(meta_path.read_text())
+        if meta.get("format") != FORMAT:
+            raise ValueError
+    except (OSError, ValueError):
+        raise UserError(f"--resume: {out} is not an sdcomp dataset (no valid dataset.json); "
+                        f"use --overwrite to replace it or choose another --out") from None
+    old = meta.get("config", {})
+    new = config.to_dict()
+    diff = [k for k in new if old.get(k) != new[k]]
+    if diff:
+        k = diff[0]
+        raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
+                        f"{new[k]!r}; run with the same options, or use --overwrite")
+    journal = out / "records.jsonl"
+    if not journal.exists():
+        return set()
+    offsets = read_journal(journal)
+    done = set()
+    for i, _ in offsets.items():
+        name = image_name(i, config.image_format)
+        if (out / "images" / name).exists() and (out / "masks" / image_name(i, "png")).exists():
+            done.add(i)
+    return {i for i in done if i < config.n}
+
+
+def write_annotations(config: GeneratorConfig, out: Path, status: str) -> dict:
+    """COCO files of both splits and dataset.json from the journal; returns the counts."""
+    journal = out / "records.jsonl"
+    offsets = read_journal(journal) if journal.exists() else {}
+    offsets = {i: o for i, o in offsets.items() if i < config.n}
+    if not journal.exists():
+        journal.touch()
+    info = {"description": "sdcomp synthetic drone-over-water dataset",
+            "version": __version__, "seed": config.seed, "url": "", "contributor": "sdcomp",
+            "year": 0, "date_created": ""}
+    counts = {"images": len(offsets), "annotations": 0}
+    for split in ("train", "val"):
+        c = write_coco(out / "annotations" / f"instances_{split}.json", journal, offsets,
+                       split, config.categories, info)
+        counts[split] = c["images"]
+        counts["annotations"] += c["annotations"]
+    dropped = empty = 0
+    for rec in iter_records(journal, offsets):
+        dropped += int(rec["image"]["meta"].get("objects_dropped", 0))
+        empty += not rec["annotations"]
+    counts["objects_dropped"] = dropped
+    counts["empty_images"] = empty
+    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "sdcomp_version": __version__,
+            "seed": config.seed, "status": status, "counts": counts,
+            "layout": {"images": "images/", "masks": "masks/ (16-bit PNG instance ids)",
+                       "train": "annotations/instances_train.json",
+                       "val": "annotations/instances_val.json", "journal": "records.jsonl"},
+            "mask_rule": MASK_RULE, "config": config.to_dict()}
+    atomic_write_bytes(out / "dataset.json",
+                       (json.dumps(meta, indent=1, sort_keys=False) + "\n").encode())
+    return counts
+
+
+def _on_sigterm():
+    """Treat SIGTERM (e.g. a job scheduler stopping the run) like Ctrl-C; returns the old
+    handler, or None when not in the main thread."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except ValueError:
+        return None
+
+
+def run(config: GeneratorConfig, options: RunOptions, gen: Generator | None = None) -> dict:
+    """Generate the dataset of ``config`` into ``options.out``; returns the counts.
+
+    Ctrl-C (KeyboardInterrupt) or an error stops the run after writing valid COCO files and
+    dataset.json for the images finished so far, then re-raises.
+    """
+    if gen is None:  # first: a bad mesh or backgrounds folder must not leave files behind
+        gen = Generator(config, options.sprites_dir, progress=options.progress)
+    done = prepare_output(config, options)
+    out = options.out
+    pending = [i for i in range(config.n) if i not in done]
+    write_annotations(config, out, "running")
+    chunks = [pending[k:k + CHUNK] for k in range(0, len(pending), CHUNK)]
+    progress = Progress(len(pending), "generate", options.progress, unit="img")
+    last = time.monotonic()
+    status = "interrupted"
+    old_term = _on_sigterm()
+    try:
+        with Journal(out / "records.jsonl") as journal:
+            for records in _results(gen, chunks, options):
+                journal.append(records)
+                progress.update(len(records))
+                if time.monotonic() - last > CHECKPOINT_SECONDS:
+                    write_annotations(config, out, "running")
+                    last = time.monotonic()
+        status = "complete"
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
+        progress.close()
+        counts = write_annotations(config, out, status)
+        if status != "complete":
+            print(f"stopped after {counts['images']} of {config.n} images; the annotation "
+                  f"files cover them. Continue with the same command and --resume.",
+                  file=sys.stderr)
+    return counts
