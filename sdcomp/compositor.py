@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .camera import CameraModel, camera_basis, pixel_rays
+from .camera import CameraModel, CameraPose, camera_basis, pixel_rays, project
 from .config import GeneratorConfig
 from .poses import tilt_matrix
 from .scene import Scene, coast_wiggle
@@ -43,6 +43,7 @@ from .shading import linear_to_srgb, srgb_to_linear, sun_direction
 from .sprites import SpriteSource
 from .water import (
     REFRACTIVE_INDEX,
+    SLOPE_SCALE,
     Texture,
     fresnel,
     refracted_cos,
@@ -54,7 +55,9 @@ MASK_THRESHOLD = 0.5
 GRID = 16  # pixels between samples of the smooth background terms
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
-GLINT_GAIN = 0.05  # scale of the sun-glint lobe
+GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
+NOISE_SCALE = 32.0  # uint8 levels per standard deviation in the noise tile
+FLOOR_LIGHT = 0.6  # fraction of the surface light reaching the floor and back
 
 
 @dataclass
@@ -124,14 +127,14 @@ class Compositor:
         self.grid_r2 = r2.astype(np.float32)
         rng = np.random.default_rng([config.seed, 31337])
         nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
-        self.noise = rng.standard_normal((nh, nw, 1)).astype(np.float32)
+        noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
+        self.noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
         self.floor_mean = srgb_to_linear(
             floor.levels[-1].reshape(-1, floor.levels[-1].shape[-1]).mean(0) / 255.0)
 
     # ------------------------------------------------------------------ main entry
     def render(self, scene: Scene, amodal: bool = False) -> Frame:
         model, pose = self.model, scene.camera
-        w, h = model.width, model.height
         basis = camera_basis(pose.pitch, pose.heading)
         sun = sun_direction(scene.sun_elevation, scene.sun_azimuth)
         ev = 2.0 ** scene.effects.exposure
@@ -151,84 +154,94 @@ class Compositor:
         return Frame(out, instances, objects, dropped, scene, gsd)
 
     # ------------------------------------------------------------------ background
-    def _background(self, scene: Scene, basis, sun, wb, rng) -> np.ndarray:
+    def _environment(self, scene: Scene, sun, wb) -> dict:
+        """Smooth terms of the background on the coarse grid (gh, gw): linear RGB radiance
+        of the water and sky with the camera gain applied, the glint lobe, the texture fade
+        (haze) and the floor's transmittance."""
         model, pose = self.model, scene.camera
-        w, h = model.width, model.height
         rays = pixel_rays(model, pose, self.gu, self.gv).astype(np.float32)  # (gh, gw, 3)
         down = -rays[..., 2]
         hit = down > 1e-4
         cos_v = np.clip(down, 1e-4, 1.0)
-        dist = np.where(hit, pose.altitude / cos_v, 1e9).astype(np.float32)
         c = scene.attenuation
         water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
         light = scene.ambient + SUN * max(sun[2], 0.0) * 0.55
         tint = water_lin / max(float(water_lin.max()), 1e-3)
-        # water body: brighter and more opaque with turbidity
-        body = water_lin * (0.45 + 0.55 * scene.turbidity) * light
-        cos_t = refracted_cos(cos_v)
+        body = water_lin * (0.45 + 0.55 * scene.turbidity) * light  # brighter when turbid
         cos_sun_t = float(refracted_cos(max(sun[2], 0.05)))
-        path = 1.0 / cos_t + 1.0 / cos_sun_t
+        path = 1.0 / refracted_cos(cos_v) + 1.0 / cos_sun_t
         t_floor = np.exp(-c * scene.floor_depth * path)[..., None]  # (gh, gw, 1)
-        floor_lin = self.floor_mean * tint * light * 0.6
+        floor_lin = self.floor_mean * tint * light * FLOOR_LIGHT
         reflect = fresnel(cos_v)[..., None]
         sky_refl = sky_linear(cos_v) * (0.55 + 0.45 * light / (0.4 + SUN * 0.55))
-        under = body * (1 - t_floor) + floor_lin * t_floor
-        water = (1 - reflect) * under + reflect * sky_refl
+        water = (1 - reflect) * (body * (1 - t_floor) + floor_lin * t_floor) \
+            + reflect * sky_refl
         # sun glint: Cox-Munk slope distribution of the facets that mirror the sun
         sigma2 = slope_variance(scene.wind)
         half = -rays + sun.astype(np.float32)
         half /= np.linalg.norm(half, axis=-1, keepdims=True)
         tan2 = (half[..., 0] ** 2 + half[..., 1] ** 2) / np.maximum(half[..., 2] ** 2, 1e-6)
-        glint = (GLINT_GAIN * SUN * np.exp(-tan2 / sigma2) / sigma2
-                 * (sun[2] > 0.02) * hit)[..., None] * np.float32(1.0)
-        # haze over distance, and the sky above the horizon
+        glint = GLINT_GAIN * np.exp(-tan2 / sigma2) / sigma2 * float(sun[2] > 0.02) * hit
+        dist = np.where(hit, pose.altitude / cos_v, 1e9).astype(np.float32)
         haze = (1.0 - np.exp(-dist / HAZE_DISTANCE))[..., None]
-        sky = sky_linear(np.clip(rays[..., 2], 0, 1))
-        horizon_col = np.asarray(sky_linear(0.0), np.float32)
-        water = water * (1 - haze) + horizon_col * haze
-        glint = glint * (1 - haze)
+        horizon = np.asarray(sky_linear(0.0), np.float32)
+        water = water * (1 - haze) + horizon * haze
         gain = (1.0 - scene.effects.vignetting * self.grid_r2)[..., None] * wb
+        sky = sky_linear(np.clip(rays[..., 2], 0, 1))
         env = np.where(hit[..., None], water, sky) * gain
-        env_srgb = linear_to_srgb(env) * 255.0
-        # wave detail: multiplicative shading from slopes, additive glint and whitecaps
-        deriv = 255.0 * (linear_to_srgb(np.clip(env * 1.02 + 1e-3, 0, 1))
-                         - linear_to_srgb(np.clip(env, 0, 1)))  # d(sRGB)/d(1 % linear)
-        slope_sd = math.sqrt(sigma2 / 2)
-        small = np.concatenate([env_srgb, glint * gain[..., :1] * 255.0,
-                                deriv * 0 + (1 - haze) * hit[..., None]], axis=-1)
-        big = cv2.resize(small.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR)
-        base = big[..., 0:3]
-        glint_map = big[..., 3]
-        near = big[..., 4]
+        return {"env": env, "glint": glint[..., None] * (1 - haze) * gain,
+                "near": (1 - haze[..., 0]) * hit, "t_floor": t_floor, "gain": gain,
+                "hit": hit, "tint": tint, "light": light, "sky": sky}
 
+    def _background(self, scene: Scene, basis, sun, wb, rng) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB background (see the module docstring)."""
+        model, pose = self.model, scene.camera
+        w, h = model.width, model.height
+        e = self._environment(scene, sun, wb)
+        env_srgb = linear_to_srgb(e["env"]) * 255.0  # (gh, gw, 3)
         if self.backgrounds is not None:
-            photo = self.backgrounds.pick(scene.texture_seed, w, h).astype(np.float32)
-            return photo * (gain.mean() if False else 1.0) * np.float32(ev)
-
-        tex = self._wave_view(scene, rng)  # (h, w, 4) uint8
-        t = tex.astype(np.float32)
-        sx = (t[..., 0] - 128.0) / 40.0
-        sy = (t[..., 1] - 128.0) / 40.0
-        # brighter on facets tilted towards the sun (seen in the image frame)
+            photo = self.backgrounds.pick(scene.texture_seed, w, h)
+            gain = linear_to_srgb(np.clip(e["gain"] * 0.5, 0, 1)) * 255.0 / (
+                linear_to_srgb(np.float32(0.5)) * 255.0)
+            g = cv2.resize(np.clip(gain * 128.0, 0, 255).astype(np.uint8), (w, h),
+                           interpolation=cv2.INTER_LINEAR)
+            return cv2.multiply(photo, g, scale=1.0 / 128.0)
+        # one pass over the wave texture: E * (1 + amp * slope . g) + whitecaps, with E the
+        # brightest background colour; then the smooth map 2 * env / E corrects it per pixel
+        e_max = np.maximum(env_srgb.reshape(-1, 3).max(0), 1.0)
+        sigma2 = slope_variance(scene.wind)
         az = math.radians(scene.sun_azimuth - pose.heading)
         gx, gy = math.sin(az), -math.cos(az)
-        amp = min(0.55, 2.2 * slope_sd) * (0.6 + 0.4 * math.cos(math.radians(
-            scene.sun_elevation)))
-        mod = 1.0 + amp * near * (gx * sx + gy * sy)
-        image = base * mod[..., None]
-        sparkle = t[..., 3] * (1.0 / 255.0)
-        image += (glint_map * (0.35 + 2.5 * sparkle))[..., None]
-        foam_level = self.config.whitecaps * max(0.0, (scene.wind - 5.0) / 10.0)
-        if foam_level > 0:
-            foam = np.clip(t[..., 2] * (foam_level / 255.0 * 3.0) - 0.25, 0, 0.8) * near
-            image += foam[..., None] * (np.float32(225.0) - image)
-        tf_max = float(t_floor.max())
-        if tf_max > 0.01 and self.config.rocks >= 0:
-            self._add_floor(image, scene, t_floor, gain, tint, light)
+        amp = min(0.55, 2.2 * math.sqrt(sigma2 / 2)) * (
+            0.6 + 0.4 * math.cos(math.radians(scene.sun_elevation)))
+        k = amp / SLOPE_SCALE
+        foam = self.config.whitecaps * max(0.0, (scene.wind - 5.0) / 10.0)
+        half = e_max / 2.0
+        m = np.zeros((3, 4), np.float32)
+        m[:, 0] = half * k * gx
+        m[:, 1] = half * k * gy
+        m[:, 2] = foam * 0.9
+        m[:, 3] = half * (1.0 - 128.0 * k * (gx + gy))
+        tex = self._wave_view(scene, rng)  # (h, w, 3) uint8
+        water = cv2.transform(tex, m)
+        ratio = np.clip(env_srgb * np.float32(128.0) / half, 0, 255).astype(np.uint8)
+        big = cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
+        image = cv2.multiply(water, big, scale=1.0 / 128.0)
+        glint = e["glint"]
+        if float(glint.max()) > 0.004:
+            glint_srgb = linear_to_srgb(np.clip(e["env"] + glint, 0, 1)) * 255.0 - env_srgb
+            g = cv2.resize(np.clip(glint_srgb, 0, 255).astype(np.uint8), (w, h),
+                           interpolation=cv2.INTER_LINEAR)
+            sparkle = cv2.convertScaleAbs(cv2.extractChannel(tex, 2), alpha=2.5 / 255.0 * 100.0,
+                                          beta=0.35 * 100.0)
+            sparkle = cv2.cvtColor(sparkle, cv2.COLOR_GRAY2RGB)
+            image = cv2.add(image, cv2.multiply(g, sparkle, scale=1 / 100.0))
+        if float(e["t_floor"].max()) > 0.01:
+            self._add_floor(image, scene, e)
         if scene.shore is not None:
-            self._add_land(image, scene, gain)
-        if not hit.all():
-            self._add_sky(image, scene, basis, sky, gain)
+            self._add_land(image, scene, e["gain"])
+        if not e["hit"].all():
+            self._add_sky(image, scene, basis, e["sky"], e["gain"])
         return image
 
     def _wave_view(self, scene: Scene, rng) -> np.ndarray:
@@ -240,13 +253,13 @@ class Compositor:
             gx, gy = model.nadir_gsd(pose.altitude)
             return tile.view(x0, y0, gx * model.width, gy * model.height, model.width,
                              model.height)
-        return self._perspective_sample(tile, scene, x0, y0)
+        return self._perspective_sample(tile, pose, x0, y0)
 
-    def _perspective_sample(self, tile: Texture, scene: Scene, x0: float, y0: float
+    def _perspective_sample(self, tile: Texture, pose: CameraPose, x0: float, y0: float
                             ) -> np.ndarray:
         """Sample a ground texture through the camera (oblique views): image rows map to
         ground distance, columns to the lateral offset, in the camera's heading frame."""
-        model, pose = self.model, scene.camera
+        model = self.model
         w, h = model.width, model.height
         u = (np.arange(w, dtype=np.float32) + 0.5 - w / 2) / model.fx
         v = (np.arange(h, dtype=np.float32) + 0.5 - h / 2) / model.fy
@@ -266,24 +279,29 @@ class Compositor:
         pitch_m = float(t[centre]) / model.fx if valid_row[centre] else 1.0
         return tile.sample(mx, my, pitch_m)
 
-    def _add_floor(self, image, scene, t_floor, gain, tint, light) -> None:
-        """Sea-floor texture detail (rocks, sand ripples) where the floor shows through."""
+    def _add_floor(self, image: np.ndarray, scene: Scene, e: dict) -> None:
+        """Sea-floor texture detail (rocks, sand ripples) where the floor shows through,
+        added in place to the uint8 ``image`` (the mean floor colour is in the background
+        already)."""
         model, pose = self.model, scene.camera
         w, h = model.width, model.height
         apparent = pose.altitude + scene.floor_depth / REFRACTIVE_INDEX
+        rng = np.random.default_rng([scene.texture_seed, 2])
+        x0, y0 = rng.uniform(0, 1000, 2)
         if pose.pitch >= 89.999:
             gx, gy = model.nadir_gsd(apparent)
-            rng = np.random.default_rng([scene.texture_seed, 2])
-            tex = self.floor.view(*rng.uniform(0, 1000, 2), gx * w, gy * h, w, h)
+            tex = self.floor.view(x0, y0, gx * w, gy * h, w, h)
         else:
-            s = type(scene.camera)(apparent, pose.pitch, pose.heading)
-            tex = self._perspective_sample(self.floor, scene.__class__(
-                **{**scene.__dict__, "camera": s}), 0.0, 0.0)
-        k = (t_floor * gain * (tint * light * 0.6))[..., :]
-        k_big = cv2.resize((linear_to_srgb(k) * 255.0).astype(np.float32), (w, h),
-                           interpolation=cv2.INTER_LINEAR)
-        detail = tex.astype(np.float32) - srgb_mean(self.floor)
-        image += detail * (k_big * (1.0 / 255.0))
+            tex = self._perspective_sample(self.floor, CameraPose(apparent, pose.pitch,
+                                                                  pose.heading), x0, y0)
+        k = e["t_floor"] * e["gain"] * e["tint"] * e["light"] * (FLOOR_LIGHT * 0.6)
+        k8 = np.clip(linear_to_srgb(k) * 255.0, 0, 255).astype(np.uint8)
+        kmap = cv2.resize(k8, (w, h), interpolation=cv2.INTER_LINEAR)
+        detail = cv2.multiply(tex, kmap, scale=1.0 / 255.0)
+        mean = cv2.multiply(kmap, tuple(float(v) for v in srgb_mean(self.floor)) + (0.0,),
+                            scale=1.0 / 255.0)
+        cv2.add(image, detail, dst=image)
+        cv2.subtract(image, mean, dst=image)
 
     def _add_land(self, image, scene: Scene, gain) -> None:
         """Land beyond the coastline: a textured polygon with a foam line at the shore."""
@@ -294,13 +312,12 @@ class Compositor:
         normal = np.array([math.cos(a), math.sin(a)])
         along_dir = np.array([-math.sin(a), math.cos(a)])
         reach = pose.altitude * 40
-        along = np.linspace(-reach, reach, 1500)
+        along = np.linspace(-reach, reach, 400)
         across = shore.distance + coast_wiggle(shore, along)
         coast = along[:, None] * along_dir + across[:, None] * normal
         far = coast + normal * reach
         poly_world = np.concatenate([coast, far[::-1]])
         pts = np.concatenate([poly_world, np.zeros((len(poly_world), 1))], axis=1)
-        from .camera import project
         uv, depth = project(model, pose, pts)
         ok = depth > 1e-3
         if ok.sum() < 3:
@@ -319,13 +336,14 @@ class Compositor:
         gx, gy = model.nadir_gsd(pose.altitude)
         tex = self.land.view(*rng.uniform(0, 1000, 2), gx * w, gy * h, w, h)
         g = float(np.mean(gain))
-        land = tex.astype(np.float32) * g
-        m = (mask.astype(np.float32) * (1.0 / 255.0))[..., None]
-        image *= 1 - m
-        image += land * m
-        f = (foam.astype(np.float32) * (0.7 / 255.0))[..., None]
-        image *= 1 - f
-        image += 230.0 * g * f
+        bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, foam))
+        win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or foam is
+        img = image[win].astype(np.float32)
+        m = (mask[win].astype(np.float32) * (1.0 / 255.0))[..., None]
+        img = img * (1 - m) + tex[win].astype(np.float32) * (g * m)
+        f = (foam[win].astype(np.float32) * (0.7 / 255.0))[..., None]
+        img = img * (1 - f) + 230.0 * g * f
+        image[win] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
     def _add_sky(self, image, scene: Scene, basis, sky, gain) -> None:
         """Sky above the horizon (a sharp line), with hills on it when the scene has them."""
@@ -338,15 +356,13 @@ class Compositor:
         if rows <= 0:
             return
         vv = (np.arange(rows, dtype=np.float64) + 0.5 - h / 2) / model.fy
-        elev = (math.sin(p) * 0 + (-vv * math.cos(p) - math.sin(p) * -0.0))
         # elevation sine of each row's ray through the image centre column
         up = -math.sin(p) - vv * math.cos(p)
         fwd = math.cos(p) - vv * math.sin(p)
         sin_el = up / np.sqrt(up ** 2 + fwd ** 2)
         col = sky_linear(np.clip(sin_el, 0, 1)) * float(np.mean(gain[0]))
         col = linear_to_srgb(col) * 255.0
-        image[:rows] = col[:, None, :].astype(np.float32)
-        del elev
+        image[:rows] = np.clip(col + 0.5, 0, 255).astype(np.uint8)[:, None, :]
         if scene.hills is not None:
             rng = np.random.default_rng(scene.hills)
             x = np.arange(w, dtype=np.float64)
@@ -365,13 +381,12 @@ class Compositor:
             cover = cover.astype(np.float32)[..., None]
             hill = linear_to_srgb(np.array([0.10, 0.13, 0.09]) * 0.6 + 0.4 * np.array(
                 sky_linear(0.0))) * 255.0 * float(np.mean(gain[0]))
-            image *= 1 - cover
-            image += cover * hill.astype(np.float32)
+            img = image.astype(np.float32) * (1 - cover) + cover * hill.astype(np.float32)
+            image[:] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
     # ------------------------------------------------------------------ layers
     def _layers(self, scene: Scene, basis, sun, wb) -> list[Layer]:
-        model, pose = self.model, scene.camera
-        cam = pose.position
+        cam = scene.camera.position
         layers = []
         water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
         body = water_lin * (0.45 + 0.55 * scene.turbidity) * (
@@ -425,10 +440,11 @@ class Compositor:
         y1 = min(int(math.ceil(dst[:, 1].max())) + 1, model.height)
         if x1 <= x0 or y1 <= y0:
             return None
-        data = src.level(pose_i, level)
-        colour, weight = self._shade(data, vb, rot, sun, d_world, pl, scene, wb, body,
+        prepared = src.prepared(pose_i, level)
+        colour, weight = self._shade(prepared, vb, rot, sun, d_world, pl, scene, wb, body,
                                      cos_sun_t, u0, v0)
-        stack = np.concatenate([colour, data[..., :1], weight[..., None]], axis=-1)
+        stack = np.concatenate([colour, prepared[0][..., None], weight[..., None]], axis=-1,
+                               dtype=np.float32)
         m = np.concatenate([a_l, (t - [x0, y0])[:, None]], axis=1).astype(np.float32)
         warped = cv2.warpAffine(stack, m, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -453,36 +469,33 @@ class Compositor:
                      np.clip(warped[..., 4], 0.0, 1.0), (float(off[0]), float(off[1])),
                      float(strength), blur)
 
-    def _shade(self, data, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t, u0, v0):
+    def _shade(self, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
+               u0, v0):
         """Relit, submerged, premultiplied sRGB colour (n, n, 3) and weight (n, n)."""
-        alpha = data[..., 0]
-        inv = np.where(alpha > 1e-6, 1.0 / np.maximum(alpha, 1e-6), 0.0).astype(np.float32)
-        albedo = data[..., 1:4] * inv[..., None]
-        normal = data[..., 4:7]
+        alpha, albedo, normal, height, lowest = prepared
         sun_view = (vb @ (rot.T @ sun)).astype(np.float32)
-        nlen = np.sqrt(np.einsum("ijk,ijk->ij", normal, normal)) + 1e-6
-        lambert = np.clip((normal @ sun_view) / nlen, 0.0, None)
-        light = scene.ambient + SUN * 0.5 * lambert * (sun[2] > 0)
+        lambert = normal @ sun_view
+        np.maximum(lambert, 0.0, out=lambert)
+        light = scene.ambient + (SUN * 0.5 * float(sun[2] > 0)) * lambert
         lin = albedo * np.asarray(pl.tint, np.float32) * light[..., None]
-        height = data[..., 7] * inv
-        depth = np.maximum(pl.draft - height, 0.0)  # metres under the surface
-        if np.any(depth > 0):
+        if pl.draft > lowest:  # some of it is under water
+            depth = np.maximum(pl.draft - height, 0.0)  # metres under the surface
             cos_t = float(refracted_cos(d_world[2]))
-            trans = np.exp(-scene.attenuation * depth * (1.0 / cos_t + 1.0 / cos_sun_t))
+            trans = np.exp(-scene.attenuation * (1.0 / cos_t + 1.0 / cos_sun_t) * depth)
             trans = trans.astype(np.float32)
-            wet = (depth > 0)[..., None]
             r = float(fresnel(d_world[2]))
             sky = sky_linear(d_world[2])
-            submerged = (lin * trans[..., None] + body * (1 - trans[..., None])) * (1 - r) \
-                + sky * r
-            lin = np.where(wet, submerged, lin)
+            t3 = trans[..., None]
+            submerged = (lin * t3 + body * (1 - t3)) * (1 - r) + sky * r
+            lin = np.where((depth > 0)[..., None], submerged, lin)
+            weight = alpha * trans
         else:
-            trans = np.ones_like(alpha)
+            weight = alpha
         w, h = self.model.width, self.model.height
         r2 = ((u0 - w / 2) ** 2 + (v0 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
         gain = wb * (1.0 - scene.effects.vignetting * min(r2, 1.0))
-        srgb = linear_to_srgb(lin * gain) * 255.0
-        return (srgb * alpha[..., None]).astype(np.float32), (alpha * trans).astype(np.float32)
+        srgb = linear_to_srgb(lin * gain)
+        return srgb * (255.0 * alpha[..., None]), weight
 
     # ------------------------------------------------------------------ masks
     def _masks(self, scene: Scene, layers: list[Layer], amodal: bool):
@@ -524,29 +537,35 @@ class Compositor:
 
     # ------------------------------------------------------------------ effects
     def _finish(self, image: np.ndarray, scene: Scene, rng) -> np.ndarray:
+        """Blur and sensor noise on the uint8 image."""
         fx = scene.effects
         if fx.motion_blur is not None:
-            length, angle = fx.motion_blur
-            k = int(max(3, round(length) | 1))
-            kernel = np.zeros((k, k), np.float32)
-            c = k // 2
-            dx, dy = math.cos(math.radians(angle)), math.sin(math.radians(angle))
-            for s in np.linspace(-length / 2, length / 2, 4 * k):
-                kernel[int(round(c + s * dy)) % k, int(round(c + s * dx)) % k] += 1
-            image = cv2.filter2D(image, -1, kernel / kernel.sum(), borderType=cv2.BORDER_REFLECT)
+            image = cv2.filter2D(image, -1, _motion_kernel(*fx.motion_blur),
+                                 borderType=cv2.BORDER_REFLECT)
         if fx.defocus_blur is not None:
             image = cv2.GaussianBlur(image, (0, 0), fx.defocus_blur)
         if fx.noise > 0:
             h, w = image.shape[:2]
-            nh, nw = self.noise.shape[:2]
-            oy, ox = int(rng.integers(nh - min(h, nh) + 1)), int(rng.integers(nw - min(w, nw) + 1))
-            if h <= nh - oy and w <= nw - ox:
-                image += self.noise[oy:oy + h, ox:ox + w] * np.float32(fx.noise)
-            else:
-                reps = (math.ceil(h / nh) + 1, math.ceil(w / nw) + 1, 1)
-                big = np.tile(self.noise, reps)
-                image += big[oy:oy + h, ox:ox + w] * np.float32(fx.noise)
-        return np.clip(image + 0.5, 0, 255).astype(np.uint8)
+            noise = self.noise
+            if h > noise.shape[0] or w > noise.shape[1]:
+                reps = (math.ceil(h / noise.shape[0]) + 1, math.ceil(w / noise.shape[1]) + 1, 1)
+                noise = np.tile(noise, reps)
+            oy = int(rng.integers(noise.shape[0] - h + 1))
+            ox = int(rng.integers(noise.shape[1] - w + 1))
+            s = fx.noise / NOISE_SCALE
+            image = cv2.addWeighted(image, 1.0, noise[oy:oy + h, ox:ox + w], s, -128.0 * s)
+        return image
+
+
+def _motion_kernel(length: float, angle: float) -> np.ndarray:
+    """Normalised line kernel of ``length`` pixels at ``angle`` degrees."""
+    k = int(max(3, round(length) | 1))
+    kernel = np.zeros((k, k), np.float32)
+    c = k // 2
+    dx, dy = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+    for t in np.linspace(-length / 2, length / 2, 4 * k):
+        kernel[int(round(c + t * dy)) % k, int(round(c + t * dx)) % k] += 1
+    return kernel / kernel.sum()
 
 
 def srgb_mean(tex: Texture) -> np.ndarray:
@@ -578,15 +597,17 @@ def _shadow(image: np.ndarray, layer: Layer) -> None:
     if ax1 <= ax0 or ay1 <= ay0:
         return
     sub = a[ay0 - sy:ay1 - sy, ax0 - sx:ax1 - sx]
-    image[ay0:ay1, ax0:ax1] *= (1.0 - layer.shadow_strength * sub)[..., None]
+    region = image[ay0:ay1, ax0:ax1]
+    shade = (1.0 - layer.shadow_strength * sub)[..., None]
+    region[:] = (region.astype(np.float32) * shade + 0.5).astype(np.uint8)
 
 
 def _over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:
     """Composite ``layer`` over ``image`` and reduce the weights of the layers it covers."""
     x0, y0, x1, y1 = layer.roi
     region = image[y0:y1, x0:x1]
-    region *= (1.0 - layer.alpha)[..., None]
-    region += layer.colour
+    out = region.astype(np.float32) * (1.0 - layer.alpha)[..., None] + layer.colour
+    region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
     for other in below:
         ox0, oy0, ox1, oy1 = other.roi
         ix0, iy0, ix1, iy1 = max(x0, ox0), max(y0, oy0), min(x1, ox1), min(y1, oy1)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import CameraModel, CameraPose, ground_points
+from .camera import CameraModel, CameraPose
 from .config import GeneratorConfig
 from .water import attenuation, parse_water
 
@@ -183,10 +183,10 @@ def _place(rng, config, model, pose, shore, kind, index) -> Placement | None:
         m = EDGE_MARGIN
         u = (-m + (1 + 2 * m) * u0) * model.width
         v = (-m + (1 + 2 * m) * v0) * model.height
-        p, hit = ground_points(model, pose, np.array([u]), np.array([v]))
-        if not hit[0]:
+        hit = _ground_point(model, pose, u, v)
+        if hit is None:
             continue
-        x, y = float(p[0, 0]), float(p[0, 1])
+        x, y = hit
         if math.hypot(x, y) > MAX_DISTANCE_ALTITUDES * pose.altitude:
             continue
         if on_land(shore, x, y):
@@ -194,6 +194,24 @@ def _place(rng, config, model, pose, shore, kind, index) -> Placement | None:
         return Placement(kind, index, x, y, heading, float(roll), float(pitch), float(draft),
                          tint)
     return None
+
+
+def _ground_point(model: CameraModel, pose: CameraPose, u: float, v: float
+                  ) -> tuple[float, float] | None:
+    """Where the ray through pixel (u, v) meets the sea, metres; None above the horizon.
+    (Scalar form of :func:`sdcomp.camera.ground_points`, which it must agree with.)"""
+    x = (u - model.width / 2) / model.fx
+    y = (v - model.height / 2) / model.fy
+    p, h = math.radians(pose.pitch), math.radians(pose.heading)
+    cp, sp, ch, sh = math.cos(p), math.sin(p), math.cos(h), math.sin(h)
+    # rows of camera_basis: right (sh, -ch, 0), down (-sp*ch, -sp*sh, -cp), fwd (cp*ch, cp*sh, -sp)
+    dx = x * sh - y * sp * ch + cp * ch
+    dy = -x * ch - y * sp * sh + cp * sh
+    dz = -y * cp - sp
+    if dz > -1e-9:
+        return None
+    t = pose.altitude / -dz
+    return dx * t, dy * t
 
 
 def _clutter_tint(rng, kind: str) -> tuple[float, float, float]:

@@ -29,6 +29,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -56,7 +57,13 @@ PALETTE = (
     ("yellow", (255, 230, 0)), ("magenta", (255, 60, 255)), ("cyan", (0, 255, 255)),
     ("orange", (255, 150, 0)), ("violet", (170, 110, 255)),
 )
-RESUME_HINT = "finish or repair the run with `python -m sdcomp.generate` and --resume (same --out)"
+
+
+def _resume(folder: Path) -> str:
+    """How to finish or repair the dataset in ``folder``: --resume redraws images and masks
+    that are missing and rewrites the COCO files."""
+    return (f"re-run `python -m sdcomp.generate --out {shlex.quote(str(folder))} --resume` "
+            f"with the run's options")
 
 
 def category_colour(category_id: int) -> tuple[int, int, int]:
@@ -90,19 +97,19 @@ class Dataset:
     categories: dict  # category id -> name
 
 
-def _read_coco(path: Path) -> dict:
+def _read_coco(path: Path, how: str) -> dict:
     try:
         coco = json.loads(path.read_bytes())
     except OSError as exc:
         raise UserError(f"COCO file {str(path)!r} cannot be read ({exc.strerror}): "
-                        f"{RESUME_HINT}") from None
+                        f"{how}") from None
     except (ValueError, UnicodeDecodeError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise UserError(f"COCO file {str(path)!r} is not valid JSON ({msg}): {RESUME_HINT} "
+        raise UserError(f"COCO file {str(path)!r} is not valid JSON ({msg}): {how} "
                         f"to rewrite it") from None
     if not (isinstance(coco, dict) and isinstance(coco.get("images"), list)
             and isinstance(coco.get("annotations", []), list)):
-        raise UserError(f"{str(path)!r} is not a COCO file (no 'images' list): {RESUME_HINT} "
+        raise UserError(f"{str(path)!r} is not a COCO file (no 'images' list): {how} "
                         f"to rewrite it")
     return coco
 
@@ -133,14 +140,14 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
         if split == "all":
             raise UserError(f"{str(folder)!r} is not a generated dataset (no "
                             f"annotations/instances_train.json or instances_val.json): "
-                            f"{RESUME_HINT} to write them")
+                            f"{_resume(folder)} to write them")
         others = [s for s in SPLIT_CHOICES if s != split]
         raise UserError(f"--split {split}: {str(paths[split])!r} does not exist: use --split "
-                        f"{' or '.join(others)}, or {RESUME_HINT} to write it")
+                        f"{' or '.join(others)}, or {_resume(folder)} to write it")
     entries: list[Entry] = []
     categories: dict[int, str] = {}
     for s in present:
-        coco = _read_coco(paths[s])
+        coco = _read_coco(paths[s], _resume(folder))
         for cat in coco.get("categories") or []:
             if isinstance(cat, dict) and isinstance(cat.get("id"), int):
                 categories[cat["id"]] = str(cat.get("name", cat["id"]))
@@ -152,7 +159,7 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
             if not (isinstance(img, dict) and isinstance(img.get("id"), int)
                     and isinstance(img.get("file_name"), str)):
                 raise UserError(f"{str(paths[s])!r}: an image record lacks an integer 'id' or "
-                                f"a 'file_name': {RESUME_HINT} to rewrite it")
+                                f"a 'file_name': {_resume(folder)} to rewrite it")
             entries.append(Entry(img, by_image.get(img["id"], []), s))
     entries.sort(key=lambda e: (e.id, e.split))
     return Dataset(folder, entries, categories)
@@ -200,7 +207,7 @@ def _fit_text(text: str, cell: int) -> tuple[str, float]:
         scale = max(0.25, scale * room / w)
     while text and cv2.getTextSize(text, FONT, scale, 1)[0][0] > room:
         text = text[:-1]
-    return text, scale
+    return text.rstrip(), scale
 
 
 def _num(meta: dict, key: str) -> float | None:
@@ -228,8 +235,8 @@ def caption(entry: Entry) -> str:
     return " ".join(parts)
 
 
-def _read_image(path: Path, target_scale: float,
-                listed: tuple[int, int] | None) -> tuple[np.ndarray, tuple[int, int]]:
+def _read_image(path: Path, target_scale: float, listed: tuple[int, int] | None,
+                how: str) -> tuple[np.ndarray, tuple[int, int]]:
     """The RGB image and its full size (w, h).
 
     Decoded at 1/2, 1/4 or 1/8 size where that is still at least ``target_scale`` of the
@@ -237,7 +244,7 @@ def _read_image(path: Path, target_scale: float,
     """
     if not path.is_file():
         raise UserError(f"image {str(path)!r} is listed in the COCO file but missing: "
-                        f"{RESUME_HINT}")
+                        f"{how}")
     factor = 1
     while listed is not None and factor < 8 and target_scale * factor * 2 <= 1.0:
         factor *= 2
@@ -252,21 +259,21 @@ def _read_image(path: Path, target_scale: float,
         img = cv2.imread(str(path), cv2.IMREAD_COLOR)  # the listed size is wrong: use the file's
     if img is None:
         raise UserError(f"image {str(path)!r} cannot be decoded (corrupt or truncated): "
-                        f"{RESUME_HINT}")
+                        f"{how}")
     return cv2.cvtColor(img, cv2.COLOR_BGR2RGB), (img.shape[1], img.shape[0])
 
 
-def _read_mask(path: Path, shape: tuple[int, int]) -> np.ndarray:
+def _read_mask(path: Path, shape: tuple[int, int], how: str) -> np.ndarray:
     if not path.is_file():
         raise UserError(f"mask {str(path)!r} is listed in the COCO file but missing: "
-                        f"{RESUME_HINT}")
+                        f"{how}")
     try:
         mask = decode_png16(path.read_bytes())
     except (OSError, ValueError) as exc:
-        raise UserError(f"mask {str(path)!r} is unreadable ({exc}): {RESUME_HINT}") from None
+        raise UserError(f"mask {str(path)!r} is unreadable ({exc}): {how}") from None
     if mask.shape != shape:
         raise UserError(f"mask {str(path)!r} is {mask.shape[1]}x{mask.shape[0]} but its image "
-                        f"is {shape[1]}x{shape[0]}: {RESUME_HINT}")
+                        f"is {shape[1]}x{shape[0]}: {how}")
     return mask
 
 
@@ -298,7 +305,8 @@ def render_cell(folder: str | Path, entry: Entry, cell: int = 256,
     listed = (w, h) if isinstance(w, int) and isinstance(h, int) and w > 0 and h > 0 else None
     room = cell - 2 * PAD
     scale_hint = min(room / listed[0], room / listed[1]) if listed else 1.0
-    img, (w, h) = _read_image(folder / "images" / rec["file_name"], scale_hint, listed)
+    img, (w, h) = _read_image(folder / "images" / rec["file_name"], scale_hint, listed,
+                              _resume(folder))
     s = min(room / w, room / h)
     dw, dh = max(1, round(w * s)), max(1, round(h * s))
     ox, oy = (cell - dw) // 2, (cell - dh) // 2
@@ -310,12 +318,14 @@ def render_cell(folder: str | Path, entry: Entry, cell: int = 256,
     contours: dict[int, list[np.ndarray]] = {}
     iids = {a["instance_id"] for a in anns if isinstance(a.get("instance_id"), int)}
     if iids and isinstance(rec.get("mask_file"), str):
-        mask = _read_mask(folder / "masks" / rec["mask_file"], (h, w))
+        mask = _read_mask(folder / "masks" / rec["mask_file"], (h, w), _resume(folder))
         contours = _contours(mask, iids)
     for ann in anns:
-        colour = category_colour(ann.get("category_id", 1))
+        cid = ann.get("category_id")
+        colour = category_colour(cid if isinstance(cid, int) else 1)
         bbox = ann.get("bbox")
-        if isinstance(bbox, list) and len(bbox) == 4:
+        if (isinstance(bbox, list) and len(bbox) == 4
+                and all(isinstance(v, (int, float)) and math.isfinite(v) for v in bbox)):
             x, y, bw, bh = (float(v) for v in bbox)
             p0 = (ox + round(x * sx), oy + round(y * sy))
             p1 = (ox + max(round(x * sx), round((x + bw) * sx) - 1),
@@ -345,15 +355,18 @@ def _check_params(n: int, columns: int, cell: int) -> None:
         raise UserError(f"--cell {cell} is too small: use at least {MIN_CELL} pixels")
 
 
-def _sheet(folder: str | Path, n: int, split: str, columns: int, cell: int, select: str,
-           seed: int, labels: bool) -> tuple[np.ndarray, list[Entry], Dataset]:
-    _check_params(n, columns, cell)
+def _check_choices(split: str, select: str) -> None:
+    if split not in SPLIT_CHOICES:
+        raise UserError(f"--split {split!r} is unknown: use {', '.join(SPLIT_CHOICES)}")
     if select not in SELECT_CHOICES:
         raise UserError(f"--select {select!r} is unknown: use {', '.join(SELECT_CHOICES)}")
-    ds = load_dataset(folder, split)
+
+
+def _sheet(ds: Dataset, split: str, n: int, columns: int, cell: int, select: str, seed: int,
+           labels: bool) -> tuple[np.ndarray, list[Entry]]:
     if not ds.entries:
         raise UserError(f"{str(ds.folder)!r} has no images in split {split!r}: choose another "
-                        f"--split, or {RESUME_HINT}")
+                        f"--split, or {_resume(ds.folder)}")
     shown = [ds.entries[i] for i in select_indices(len(ds.entries), n, select, seed)]
     cols = min(columns, len(shown))
     rows = math.ceil(len(shown) / cols)
@@ -363,7 +376,7 @@ def _sheet(folder: str | Path, n: int, split: str, columns: int, cell: int, sele
         r, c = divmod(k, cols)
         sheet[r * cell:(r + 1) * cell, c * cell:(c + 1) * cell] = render_cell(
             ds.folder, entry, cell, labels)
-    return sheet, shown, ds
+    return sheet, shown
 
 
 def contact_sheet(folder: str | Path, n: int = 24, split: str = "all", columns: int = 6,
@@ -373,10 +386,13 @@ def contact_sheet(folder: str | Path, n: int = 24, split: str = "all", columns: 
 
     The images of ``split`` are sorted by id and ``select``-ed (see :func:`select_indices`);
     they fill ``min(columns, shown)`` columns of ``cell`` x ``cell`` cells, row by row, so
-    the sheet is ``ceil(shown / columns') * cell`` high. Raises UserError for bad arguments
-    or a missing or broken dataset.
+    the sheet is ``ceil(shown / min(columns, shown)) * cell`` high. Raises UserError for bad
+    arguments or a missing or broken dataset.
     """
-    return _sheet(folder, n, split, columns, cell, select, seed, labels)[0]
+    _check_params(n, columns, cell)
+    _check_choices(split, select)
+    return _sheet(load_dataset(folder, split), split, n, columns, cell, select, seed,
+                  labels)[0]
 
 
 def write_sheet(sheet: np.ndarray, path: str | Path) -> Path:
@@ -414,11 +430,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_out(out: Path) -> None:
-    if out.suffix.lower() != ".png":
-        raise UserError(f"--out {str(out)!r} must end in .png: the sheet is written as PNG")
     if out.is_dir():
         raise UserError(f"--out {str(out)!r} is a folder: give a file name such as "
                         f"{str(out / 'sheet.png')!r}")
+    if out.suffix.lower() != ".png":
+        raise UserError(f"--out {str(out)!r} must end in .png: the sheet is written as PNG")
     parent = out.parent
     if not parent.is_dir():
         raise UserError(f"--out {str(out)!r}: folder {str(parent)!r} does not exist: create it "
@@ -430,15 +446,12 @@ def _check_out(out: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _check_params(args.n, args.columns, args.cell)
-    if args.split not in SPLIT_CHOICES:
-        raise UserError(f"--split {args.split!r} is unknown: use {', '.join(SPLIT_CHOICES)}")
-    if args.select not in SELECT_CHOICES:
-        raise UserError(f"--select {args.select!r} is unknown: use {', '.join(SELECT_CHOICES)}")
-    load_dataset(args.folder, args.split)  # a missing dataset is named before --out
-    out = Path(args.out) if args.out is not None else Path(args.folder) / "sheet.png"
+    _check_choices(args.split, args.select)
+    ds = load_dataset(args.folder, args.split)
+    out = Path(args.out) if args.out is not None else ds.folder / "sheet.png"
     _check_out(out)
-    sheet, shown, ds = _sheet(args.folder, args.n, args.split, args.columns, args.cell,
-                              args.select, args.seed, args.labels)
+    sheet, shown = _sheet(ds, args.split, args.n, args.columns, args.cell, args.select,
+                          args.seed, args.labels)
     write_sheet(sheet, out)
     used = sorted({a.get("category_id", 1) for e in shown for a in e.annotations
                    if isinstance(a.get("category_id", 1), int)})

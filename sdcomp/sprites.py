@@ -65,6 +65,29 @@ class SpriteSource:
             self._large.popitem(last=False)
         return out
 
+    def prepared(self, pose: int, level: int) -> tuple:
+        """(alpha (n, n), albedo linear (n, n, 3), unit normal (n, n, 3), height (n, n),
+        lowest height) of a level, un-premultiplied, for relighting; cached with it."""
+        key = (pose, level, "p")
+        cache = self._small if level >= 2 else self._large
+        hit = cache.get(key)
+        if hit is not None:
+            return hit
+        data = self.level(pose, level)
+        alpha = np.ascontiguousarray(data[..., 0])
+        inv = np.where(alpha > 1e-6, 1.0 / np.maximum(alpha, 1e-6), 0.0).astype(np.float32)
+        albedo = data[..., 1:4] * inv[..., None]
+        normal = data[..., 4:7]
+        length = np.sqrt(np.einsum("ijk,ijk->ij", normal, normal)) + 1e-6
+        normal = (normal / length[..., None]).astype(np.float32)
+        height = data[..., 7] * inv
+        lowest = float(height[alpha > 1e-6].min()) if np.any(alpha > 1e-6) else 0.0
+        out = (alpha, albedo, normal, height, lowest)
+        cache[key] = out  # type: ignore[assignment]
+        if cache is self._large and len(self._large) > _LARGE_CACHE:
+            self._large.popitem(last=False)
+        return out
+
     def _base(self, pose: int) -> np.ndarray:
         a = self.atlas
         alpha = a.alpha[pose].astype(np.float32)
