@@ -53,6 +53,7 @@ from .water import (
 
 MASK_THRESHOLD = 0.5
 GRID = 16  # pixels between samples of the smooth background terms
+BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
 GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
@@ -109,9 +110,9 @@ class Compositor:
 
     def __init__(self, config: GeneratorConfig, objects: list[SpriteSource],
                  clutter: list[SpriteSource], waves: list[Texture], floor: Texture,
-                 land: Texture, backgrounds=None):
+                 land: Texture, backgrounds=None, model: CameraModel | None = None):
         self.config = config
-        self.model: CameraModel = config.camera_model()
+        self.model: CameraModel = model or config.camera_model()
         self.objects = objects
         self.clutter = clutter
         self.waves = waves
@@ -128,7 +129,20 @@ class Compositor:
         rng = np.random.default_rng([config.seed, 31337])
         nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
         noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
-        self.noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
+        noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
+        if h > 1024 or w > 1024:  # large frames: repeat the tile once, here
+            noise = np.tile(noise, (math.ceil(h / nh) + 1, math.ceil(w / nw) + 1, 1))
+        self.noise = noise
+        # large frames: the background (smooth light, textures magnified from their
+        # few-centimetre pitch) is drawn at most BACKGROUND_MAX wide and resized
+        self._bg = self
+        m = self.model
+        if max(m.width, m.height) > BACKGROUND_MAX:
+            f = BACKGROUND_MAX / max(m.width, m.height)
+            small = CameraModel(m.sensor_width, m.sensor_height, m.diagonal_fov,
+                                max(1, round(m.width * f)), max(1, round(m.height * f)))
+            self._bg = Compositor(config, objects, clutter, waves, floor, land, backgrounds,
+                                  model=small)
         self.floor_mean = srgb_to_linear(
             floor.levels[-1].reshape(-1, floor.levels[-1].shape[-1]).mean(0) / 255.0)
 
@@ -141,7 +155,10 @@ class Compositor:
         wb = np.asarray(scene.effects.white_balance, np.float32) * ev
         rng = np.random.default_rng([scene.texture_seed, 1])
 
-        image = self._background(scene, basis, sun, wb, rng)
+        image = self._bg._background(scene, basis, sun, wb, rng)
+        if self._bg is not self:
+            image = cv2.resize(image, (model.width, model.height),
+                               interpolation=cv2.INTER_LINEAR)
         layers = self._layers(scene, basis, sun, wb)
         if self.config.shadows:
             for layer in layers:
@@ -441,6 +458,8 @@ class Compositor:
         if x1 <= x0 or y1 <= y0:
             return None
         prepared = src.prepared(pose_i, level)
+        if pl.roll or pl.pitch:
+            prepared = _tilted_heights(prepared, vb, src, level, pl)
         colour, weight = self._shade(prepared, vb, rot, sun, d_world, pl, scene, wb, body,
                                      cos_sun_t, u0, v0)
         stack = np.concatenate([colour, prepared[0][..., None], weight[..., None]], axis=-1,
@@ -547,9 +566,6 @@ class Compositor:
         if fx.noise > 0:
             h, w = image.shape[:2]
             noise = self.noise
-            if h > noise.shape[0] or w > noise.shape[1]:
-                reps = (math.ceil(h / noise.shape[0]) + 1, math.ceil(w / noise.shape[1]) + 1, 1)
-                noise = np.tile(noise, reps)
             oy = int(rng.integers(noise.shape[0] - h + 1))
             ox = int(rng.integers(noise.shape[1] - w + 1))
             s = fx.noise / NOISE_SCALE
@@ -566,6 +582,30 @@ def _motion_kernel(length: float, angle: float) -> np.ndarray:
     for t in np.linspace(-length / 2, length / 2, 4 * k):
         kernel[int(round(c + t * dy)) % k, int(round(c + t * dx)) % k] += 1
     return kernel / kernel.sum()
+
+
+def _tilted_heights(prepared: tuple, vb: np.ndarray, src: SpriteSource, level: int,
+                    pl) -> tuple:
+    """``prepared`` with heights above the sea of the body tilted by the placement's roll
+    and pitch (the atlas stores heights of the level body). Each pixel's surface point is
+    rebuilt in the body frame from its sprite position, its level height and the view
+    basis ``vb`` (rows right, up, toward), then tilted about the waterline point."""
+    alpha, albedo, normal, height, _ = prepared
+    n = alpha.shape[0]
+    pitch_m = src.metres_per_pixel * (1 << level)
+    c = (np.arange(n, dtype=np.float32) + 0.5 - n / 2) * pitch_m
+    x, y = c[None, :], -c[:, None]  # sprite right, up (metres from the body origin)
+    wl = src.waterline
+    toward_z = max(float(vb[2, 2]), 1e-3)
+    z = height + wl  # body-frame z of the surface point
+    d = (z - x * vb[0, 2] - y * vb[1, 2]) / toward_z  # its depth along the view axis
+    p = x[..., None] * vb[0] + y[..., None] * vb[1] + d[..., None] * vb[2]  # (n, n, 3)
+    p[..., 2] -= wl
+    row = tilt_matrix(pl.roll, pl.pitch)[2].astype(np.float32)
+    tilted = (p @ row).astype(np.float32)
+    covered = alpha > 1e-6
+    lowest = float(tilted[covered].min()) if covered.any() else 0.0
+    return alpha, albedo, normal, np.where(covered, tilted, 0.0).astype(np.float32), lowest
 
 
 def srgb_mean(tex: Texture) -> np.ndarray:

@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from . import __version__
-from .coco import Journal, iter_records, mask_to_rle, read_journal, write_coco
+from .coco import Journal, crop_to_rle, iter_records, mask_to_rle, read_journal, write_coco
 from .compositor import MASK_THRESHOLD
 from .config import GeneratorConfig
 from .errors import UserError
@@ -101,10 +101,10 @@ def make_record(gen: Generator, index: int, out: Path) -> dict:
     anns = []
     for ann, inst in zip(annotations(config, frame), frame.objects, strict=True):
         x, y, w, h = ann["bbox"]
-        region = np.zeros(frame.instances.shape, bool)
-        region[y:y + h, x:x + w] = frame.instances[y:y + h, x:x + w] == inst.instance_id
+        crop = frame.instances[y:y + h, x:x + w] == inst.instance_id
+        rle = crop_to_rle(crop, x, y, *frame.instances.shape)
         rec = {"instance_id": ann["instance_id"], "category_id": ann["category_id"],
-               "bbox": ann["bbox"], "area": ann["area"], "segmentation": mask_to_rle(region),
+               "bbox": ann["bbox"], "area": ann["area"], "segmentation": rle,
                "iscrowd": 0, "pose": ann["pose"]}
         if inst.amodal is not None:
             rec["amodal_segmentation"] = mask_to_rle(inst.amodal)
@@ -156,9 +156,17 @@ def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> It
     methods = mp.get_all_start_methods()
     ctx = mp.get_context("fork" if "fork" in methods else "spawn")
     _WORKER["gen"] = gen
-    with ctx.Pool(options.workers, initializer=_init_worker_with,
-                  initargs=(str(options.out), None if ctx.get_start_method() == "fork"
-                            else (gen.config, str(options.sprites_dir)))) as pool:
+    # OpenCV's thread pool does not survive fork (children deadlock in their first
+    # parallel call): stop it while the workers are forked, then restore it
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        pool = ctx.Pool(options.workers, initializer=_init_worker_with,
+                        initargs=(str(options.out), None if ctx.get_start_method() == "fork"
+                                  else (gen.config, str(options.sprites_dir))))
+    finally:
+        cv2.setNumThreads(threads)
+    with pool:
         try:
             yield from pool.imap(_work, chunks)
         except BaseException:
@@ -274,6 +282,7 @@ def _on_sigterm():
     """Treat SIGTERM (e.g. a job scheduler stopping the run) like Ctrl-C; returns the old
     handler, or None when not in the main thread."""
     def handler(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: let the clean-up finish
         raise KeyboardInterrupt
     try:
         return signal.signal(signal.SIGTERM, handler)

@@ -31,9 +31,3 @@ def box_mesh(size=(1.0, 0.6, 0.3), colour=(200, 60, 40), waterline=0.0,
     cols = np.tile(np.array(colour, np.uint8), (len(b.faces), 1))
     return ColoredMesh(b.vertices, b.faces, cols, waterline, name, closed=True)
 
-
-@pytest.fixture(scope="session")
-def sprites_dir(tmp_path_factory) -> Path:
-    """One sprite-atlas folder for the whole test session (atlases are built on first use
-    and reused, as a user's ``sprites/`` would be); never the repository's own."""
-    return tmp_path_factory.mktemp("sprites")

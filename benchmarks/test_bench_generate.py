@@ -1,0 +1,122 @@
+"""Generator throughput and memory (pytest-benchmark). Figures go to ``extra_info``.
+
+Targets from the generator issue, measured on the 2-core development machine:
+416x416 JPEG + masks + COCO on disk >= 1000 images/s with 2 workers; in-memory API >= 1500
+images/s in one process; 5472x3648 JPEG >= 10 images/s with 2 workers; peak memory of
+``--n 100000`` within 10 % of ``--n 1000`` (the 100000-image run is ``-m slow``).
+The asserts are sanity floors far below the targets (so a loaded CI machine does not fail);
+the measured rates are printed and stored for comparison with the targets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sdcomp.config import GeneratorConfig
+from sdcomp.generator import Generator
+from sdcomp.writer import RunOptions, run
+
+TARGETS = {"disk_416": 1000.0, "memory_416": 1500.0, "disk_full": 10.0}
+
+
+@pytest.fixture(scope="module")
+def default_generator(sprites_dir):
+    gen = Generator(GeneratorConfig(n=1000), sprites_dir, progress=False)
+    for i in range(300):  # warm the sprite caches, as a long run would
+        gen.render(i)
+    return gen
+
+
+def _report(benchmark, key: str, images: int) -> float:
+    rate = images / benchmark.stats.stats.mean
+    benchmark.extra_info.update(images=images, images_per_s=round(rate, 1),
+                                target_images_per_s=TARGETS[key])
+    print(f"\n{key}: {rate:.0f} images/s (target {TARGETS[key]:.0f})")
+    return rate
+
+
+def test_bench_in_memory_416(benchmark, default_generator):
+    """The Python API, one process: render image i to arrays (image, instance map)."""
+    n = 500
+    counter = iter(range(10**9))
+
+    def batch():
+        for _ in range(n):
+            default_generator.render(next(counter))
+
+    benchmark.pedantic(batch, rounds=3, iterations=1)
+    assert _report(benchmark, "memory_416", n) > 50
+
+
+def test_bench_disk_416_two_workers(benchmark, default_generator, tmp_path):
+    """JPEG images, 16-bit PNG masks, journal and COCO files, 2 workers."""
+    n = 2000
+    config = default_generator.config
+    config = GeneratorConfig.from_mapping({"n": n}, config)
+    gen = default_generator
+    gen.config = config
+    rounds = iter(range(100))
+
+    def once():
+        out = tmp_path / f"run{next(rounds)}"
+        run(config, RunOptions(out, workers=2, progress=False), gen=gen)
+
+    benchmark.pedantic(once, rounds=2, iterations=1)
+    assert _report(benchmark, "disk_416", n) > 20
+
+
+def test_bench_disk_full_resolution(benchmark, sprites_dir, tmp_path):
+    """5472 x 3648 JPEG frames with masks and COCO, 2 workers."""
+    n = 12
+    config = GeneratorConfig(n=n, width=5472, height=3648)
+    gen = Generator(config, sprites_dir, progress=False)
+    rounds = iter(range(100))
+
+    def once():
+        out = tmp_path / f"run{next(rounds)}"
+        run(config, RunOptions(out, workers=2, progress=False), gen=gen)
+
+    benchmark.pedantic(once, rounds=1, iterations=1)
+    assert _report(benchmark, "disk_full", n) > 0.5
+
+
+def _peak_rss_mib(n: int, out: Path, sprites: Path) -> float:
+    """Peak resident memory (MiB) of the generator command and its workers for ``n``."""
+    code = (
+        "import resource, sys\n"
+        "from sdcomp.errors import run_cli\n"
+        "from sdcomp.generate import main\n"
+        "rc = run_cli(main, sys.argv[1:])\n"
+        "me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+        "kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss\n"
+        "print('PEAK', max(me, kids) / 1024.0)\n"
+        "sys.exit(rc)\n")
+    res = subprocess.run([sys.executable, "-c", code, "--n", str(n), "--out", str(out),
+                          "--workers", "2", "--sprites", str(sprites), "--no-progress"],
+                         capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONHASHSEED": "0"})
+    line = [ln for ln in res.stdout.splitlines() if ln.startswith("PEAK")][0]
+    return float(line.split()[1])
+
+
+@pytest.mark.parametrize("big", [20_000, pytest.param(100_000, marks=pytest.mark.slow)])
+def test_bench_memory_flat(benchmark, sprites_dir, tmp_path, big):
+    """Peak memory does not grow with --n (streaming writes, streamed COCO)."""
+    small_peak = _peak_rss_mib(1000, tmp_path / "small", sprites_dir)
+    big_peak = benchmark.pedantic(_peak_rss_mib, args=(big, tmp_path / "big", sprites_dir),
+                                  rounds=1, iterations=1)
+    ratio = big_peak / small_peak
+    benchmark.extra_info.update(peak_mib_1000=round(small_peak, 1),
+                                **{f"peak_mib_{big}": round(big_peak, 1)},
+                                ratio=round(ratio, 3))
+    print(f"\npeak memory: n=1000 {small_peak:.0f} MiB, n={big} {big_peak:.0f} MiB "
+          f"({ratio:.3f}x)")
+    counts = json.loads((tmp_path / "big" / "dataset.json").read_text())["counts"]
+    assert counts["images"] == big
+    assert ratio <= 1.10
