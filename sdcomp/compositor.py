@@ -294,7 +294,14 @@ class Compositor:
         my = np.where(valid_row[:, None], my, 0).astype(np.float32)
         centre = min(int(h * 0.75), h - 1)
         pitch_m = float(t[centre]) / model.fx if valid_row[centre] else 1.0
-        return tile.sample(mx, my, pitch_m)
+        tex = tile.sample(mx, my, pitch_m)
+        # rows whose pixels span many texels would alias: fade them to the tile's mean
+        row_pitch = np.where(valid_row, t, np.inf) / model.fx  # metres per pixel per row
+        over = np.log2(np.maximum(row_pitch / max(pitch_m, 1e-9), 1e-9))
+        keep = np.clip(1.5 - over, 0.0, 1.0).astype(np.float32)[:, None, None]
+        mean = tile.levels[-1].reshape(-1, tex.shape[-1]).mean(0).astype(np.float32)
+        faded = (tex.astype(np.float32) - mean) * keep + mean
+        return np.clip(faded + 0.5, 0, 255).astype(np.uint8)
 
     def _add_floor(self, image: np.ndarray, scene: Scene, e: dict) -> None:
         """Sea-floor texture detail (rocks, sand ripples) where the floor shows through,
@@ -328,15 +335,15 @@ class Compositor:
         a = math.radians(shore.angle)
         normal = np.array([math.cos(a), math.sin(a)])
         along_dir = np.array([-math.sin(a), math.cos(a)])
-        reach = pose.altitude * 40
-        along = np.linspace(-reach, reach, 400)
+        reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
+        along = np.linspace(-reach, reach, 800)
         across = shore.distance + coast_wiggle(shore, along)
         coast = along[:, None] * along_dir + across[:, None] * normal
         far = coast + normal * reach
         poly_world = np.concatenate([coast, far[::-1]])
         pts = np.concatenate([poly_world, np.zeros((len(poly_world), 1))], axis=1)
         uv, depth = project(model, pose, pts)
-        ok = depth > 1e-3
+        ok = (depth > 1e-3) & np.isfinite(uv).all(axis=1)
         if ok.sum() < 3:
             return
         mask = np.zeros((h, w), np.uint8)

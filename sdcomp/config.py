@@ -12,9 +12,10 @@ Precedence: defaults < ``--preset`` < ``--config FILE`` < flags on the command l
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+
+import tomllib
 
 from .camera import PRESETS as CAMERA_PRESETS
 from .camera import CameraModel
@@ -351,4 +352,4 @@ def load_toml(path: str | Path) -> dict:
     return data
 
 
-__all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml", "field"]
+__all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml"]

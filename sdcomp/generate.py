@@ -97,7 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     run_g.add_argument("--out", default="dataset", metavar="DIR",
                        help="output folder (default: %(default)s)")
     run_g.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="worker processes (default: all cores, %d here)" % _cores())
+                       help=f"worker processes (default: all cores, {_cores()} here)")
     run_g.add_argument("--resume", action="store_true",
                        help="continue an interrupted run in --out (same options)")
     run_g.add_argument("--overwrite", action="store_true",

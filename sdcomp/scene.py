@@ -21,7 +21,7 @@ from .config import GeneratorConfig
 from .water import attenuation, parse_water
 
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
-EDGE_MARGIN = 0.08  # objects may stick out of the frame by this fraction of its size
+EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     water = config.water[min(int(rng.random() * len(config.water)), len(config.water) - 1)]
     name, rgb = parse_water(water)
     jitter = rng.uniform(0.92, 1.08, 3)
-    rgb = tuple(int(np.clip(round(c * j), 0, 255)) for c, j in zip(rgb, jitter))
+    rgb = tuple(int(np.clip(round(c * j), 0, 255)) for c, j in zip(rgb, jitter, strict=True))
     turbidity = config.turbidity.sample(rng)
     wind = config.wind.sample(rng)
     swell = rng.uniform(0, 360)

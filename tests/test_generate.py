@@ -10,8 +10,12 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import shutil
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -39,6 +43,7 @@ META_KEYS = ("height_above_takeoff(meter)", "gimbal_pitch(degrees)", "gimbal_hea
              "gsd(m/px)", "water_color", "water_rgb", "turbidity", "sun_elevation(degrees)",
              "sun_azimuth(degrees)")
 POSE_KEYS = ("heading_deg", "roll_deg", "pitch_deg", "draft_m")
+REPO = Path(__file__).resolve().parents[1]
 
 
 # --------------------------------------------------------------------------- helpers
@@ -55,6 +60,27 @@ def gen(out: Path, sprites: Path, *extra, base=BASE, workers: int = 1) -> tuple[
     """One generator run into ``out`` (flags later in the list win over earlier ones)."""
     return cli([*base, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
                 "--no-progress"])
+
+
+def python(code: str, argv: list, timeout: float) -> tuple[int, str, str]:
+    """Run ``code`` in a fresh Python process (its own session, so that a hang of it or of
+    its worker processes is killed as a whole after ``timeout`` seconds and fails the test)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    proc = subprocess.Popen([sys.executable, "-c", code, *map(str, argv)], cwd=REPO, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail(f"the run did not finish in {timeout} s (hung)")
+    return proc.returncode, out, err
+
+
+CLI = ("import sys; from sdcomp.errors import run_cli; from sdcomp.generate import main; "
+       "sys.exit(run_cli(main, sys.argv[1:]))")
 
 
 def files(root: Path) -> dict[str, bytes]:
@@ -290,10 +316,27 @@ def test_val_fraction_zero_gives_empty_loadable_val(tmp_path, sprites_dir):
 # --------------------------------------------------------------------------- 4. determinism
 
 def test_two_workers_give_identical_files(dataset_a, tmp_path, sprites_dir):
+    # as a user runs it: a fresh process (see the next test for a long-lived one)
     b = tmp_path / "w2"
-    rc, _, err = gen(b, sprites_dir, workers=2)
+    rc, _, err = python(CLI, [*BASE, "--out", b, "--sprites", sprites_dir, "--workers", 2,
+                              "--no-progress"], timeout=60)
     assert rc == 0, err
     assert_same_dataset(dataset_a, b)
+
+
+def test_workers_after_opencv_use_in_the_same_process(tmp_path, sprites_dir):
+    """A process that used OpenCV's thread pool earlier (a notebook, a previous run through
+    the Python API) and then generates with workers must not hang: the forked workers
+    inherit the pool's state."""
+    code = ("import sys, time, numpy as np, cv2\n"
+            "cv2.GaussianBlur(np.zeros((2000, 2000), np.float32), (31, 31), 5)\n"
+            "time.sleep(1.0)  # the pool's threads go to sleep on their condition variable\n"
+            + CLI)
+    out = tmp_path / "after_cv2"
+    rc, _, err = python(code, [*BASE, "--out", out, "--sprites", sprites_dir, "--workers", 2,
+                               "--no-progress"], timeout=40)
+    assert rc == 0, err
+    assert len(list((out / "images").iterdir())) == 40
 
 
 def test_other_seed_gives_other_images(dataset_a, tmp_path, sprites_dir):
