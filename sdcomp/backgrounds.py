@@ -35,9 +35,13 @@ class Backgrounds:
         if not files:
             raise UserError(f"--backgrounds {folder}: no photos in it; put empty-water "
                             f"photos ({', '.join(EXTENSIONS)}) there")
+        for p in files:  # fail before writing anything: check every file's header
+            if not cv2.haveImageReader(str(p)):
+                raise UserError(f"--backgrounds: cannot read {p} as an image; remove or "
+                                f"replace it")
         self.files = files
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
-        self._load(0)  # fail early on an unreadable first photo
+        self._load(0)
 
     def __len__(self) -> int:
         return len(self.files)

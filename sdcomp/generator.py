@@ -21,6 +21,7 @@ from .clutter import build as build_clutter
 from .coloredmesh import ColoredMesh
 from .compositor import Compositor, Frame
 from .config import GeneratorConfig
+from .errors import UserError
 from .mesh import MeshSpec
 from .poses import PoseGrid
 from .scene import Scene, sample_scene
@@ -67,7 +68,7 @@ class Generator:
                  progress: bool | None = None, build_workers: int | None = None):
         self.config = config
         self.model = config.camera_model()
-        objects = [self._source(MeshSpec(o.mesh).load(), AtlasConfig(), sprites_dir,
+        objects = [self._source(_load_object(o.mesh), AtlasConfig(), sprites_dir,
                                 progress, build_workers, f"--object {o.mesh}")
                    for o in config.objects]
         clutter = []
@@ -102,6 +103,13 @@ class Generator:
         frame = self.render(index)
         return Sample(frame.image, frame.instances, annotations(self.config, frame),
                       metadata(frame), frame)
+
+
+def _load_object(source: str) -> ColoredMesh:
+    try:
+        return MeshSpec(source).load()
+    except UserError as e:
+        raise UserError(f"--object {source}: {e}") from None
 
 
 def annotations(config: GeneratorConfig, frame: Frame) -> list[dict]:
