@@ -143,8 +143,7 @@ class Compositor:
                                 max(1, round(m.width * f)), max(1, round(m.height * f)))
             self._bg = Compositor(config, objects, clutter, waves, floor, land, backgrounds,
                                   model=small)
-        self.floor_mean = srgb_to_linear(
-            floor.levels[-1].reshape(-1, floor.levels[-1].shape[-1]).mean(0) / 255.0)
+        self.floor_mean = srgb_to_linear(floor.mean / 255.0)
 
     # ------------------------------------------------------------------ main entry
     def render(self, scene: Scene, amodal: bool = False) -> Frame:
@@ -155,7 +154,7 @@ class Compositor:
         wb = np.asarray(scene.effects.white_balance, np.float32) * ev
         rng = np.random.default_rng([scene.texture_seed, 1])
 
-        image = self._bg._background(scene, basis, sun, wb, rng)
+        image = self._bg._background(scene, sun, wb, rng)
         if self._bg is not self:
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
@@ -167,25 +166,22 @@ class Compositor:
             _over(image, layer, layers[:k])
         instances, objects, dropped = self._masks(scene, layers, amodal)
         out = self._finish(image, scene, rng)
-        gsd = pose.altitude / model.fx if pose.pitch == 90 else _centre_gsd(model, pose)
+        gsd = _centre_gsd(model, pose)
         return Frame(out, instances, objects, dropped, scene, gsd)
 
     # ------------------------------------------------------------------ background
     def _environment(self, scene: Scene, sun, wb) -> dict:
         """Smooth terms of the background on the coarse grid (gh, gw): linear RGB radiance
-        of the water and sky with the camera gain applied, the glint lobe, the texture fade
-        (haze) and the floor's transmittance."""
+        of the water and sky with the camera gain applied, the glint lobe and the floor's
+        transmittance."""
         model, pose = self.model, scene.camera
         rays = pixel_rays(model, pose, self.gu, self.gv).astype(np.float32)  # (gh, gw, 3)
         down = -rays[..., 2]
         hit = down > 1e-4
         cos_v = np.clip(down, 1e-4, 1.0)
         c = scene.attenuation
-        water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
-        light = scene.ambient + SUN * max(sun[2], 0.0) * 0.55
+        water_lin, light, body, cos_sun_t = _water_light(scene, sun)
         tint = water_lin / max(float(water_lin.max()), 1e-3)
-        body = water_lin * (0.45 + 0.55 * scene.turbidity) * light  # brighter when turbid
-        cos_sun_t = float(refracted_cos(max(sun[2], 0.05)))
         path = 1.0 / refracted_cos(cos_v) + 1.0 / cos_sun_t
         t_floor = np.exp(-c * scene.floor_depth * path)[..., None]  # (gh, gw, 1)
         floor_lin = self.floor_mean * tint * light * FLOOR_LIGHT
@@ -207,15 +203,13 @@ class Compositor:
         sky = sky_linear(np.clip(rays[..., 2], 0, 1))
         env = np.where(hit[..., None], water, sky) * gain
         return {"env": env, "glint": glint[..., None] * (1 - haze) * gain,
-                "near": (1 - haze[..., 0]) * hit, "t_floor": t_floor, "gain": gain,
-                "hit": hit, "tint": tint, "light": light, "sky": sky}
+                "t_floor": t_floor, "gain": gain, "hit": hit, "tint": tint, "light": light}
 
-    def _background(self, scene: Scene, basis, sun, wb, rng) -> np.ndarray:
+    def _background(self, scene: Scene, sun, wb, rng) -> np.ndarray:
         """(H, W, 3) uint8 sRGB background (see the module docstring)."""
         model, pose = self.model, scene.camera
         w, h = model.width, model.height
         e = self._environment(scene, sun, wb)
-        env_srgb = linear_to_srgb(e["env"]) * 255.0  # (gh, gw, 3)
         if self.backgrounds is not None:
             photo = self.backgrounds.pick(scene.texture_seed, w, h)
             gain = linear_to_srgb(np.clip(e["gain"] * 0.5, 0, 1)) * 255.0 / (
@@ -223,6 +217,7 @@ class Compositor:
             g = cv2.resize(np.clip(gain * 128.0, 0, 255).astype(np.uint8), (w, h),
                            interpolation=cv2.INTER_LINEAR)
             return cv2.multiply(photo, g, scale=1.0 / 128.0)
+        env_srgb = linear_to_srgb(e["env"]) * 255.0  # (gh, gw, 3)
         # one pass over the wave texture: E * (1 + amp * slope . g) + whitecaps, with E the
         # brightest background colour; then the smooth map 2 * env / E corrects it per pixel
         e_max = np.maximum(env_srgb.reshape(-1, 3).max(0), 1.0)
@@ -258,7 +253,7 @@ class Compositor:
         if scene.shore is not None:
             self._add_land(image, scene, e["gain"])
         if not e["hit"].all():
-            self._add_sky(image, scene, basis, e["sky"], e["gain"])
+            self._add_sky(image, scene, e["gain"])
         return image
 
     def _wave_view(self, scene: Scene, rng) -> np.ndarray:
@@ -299,8 +294,7 @@ class Compositor:
         row_pitch = np.where(valid_row, t, np.inf) / model.fx  # metres per pixel per row
         over = np.log2(np.maximum(row_pitch / max(pitch_m, 1e-9), 1e-9))
         keep = np.clip(1.5 - over, 0.0, 1.0).astype(np.float32)[:, None, None]
-        mean = tile.levels[-1].reshape(-1, tex.shape[-1]).mean(0).astype(np.float32)
-        faded = (tex.astype(np.float32) - mean) * keep + mean
+        faded = (tex.astype(np.float32) - tile.mean) * keep + tile.mean
         return np.clip(faded + 0.5, 0, 255).astype(np.uint8)
 
     def _add_floor(self, image: np.ndarray, scene: Scene, e: dict) -> None:
@@ -322,7 +316,7 @@ class Compositor:
         k8 = np.clip(linear_to_srgb(k) * 255.0, 0, 255).astype(np.uint8)
         kmap = cv2.resize(k8, (w, h), interpolation=cv2.INTER_LINEAR)
         detail = cv2.multiply(tex, kmap, scale=1.0 / 255.0)
-        mean = cv2.multiply(kmap, tuple(float(v) for v in srgb_mean(self.floor)) + (0.0,),
+        mean = cv2.multiply(kmap, tuple(float(v) for v in self.floor.mean) + (0.0,),
                             scale=1.0 / 255.0)
         cv2.add(image, detail, dst=image)
         cv2.subtract(image, mean, dst=image)
@@ -369,7 +363,7 @@ class Compositor:
         img = img * (1 - f) + 230.0 * g * f
         image[win] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
-    def _add_sky(self, image, scene: Scene, basis, sky, gain) -> None:
+    def _add_sky(self, image, scene: Scene, gain) -> None:
         """Sky above the horizon (a sharp line), with hills on it when the scene has them."""
         model, pose = self.model, scene.camera
         w, h = model.width, model.height
@@ -412,10 +406,7 @@ class Compositor:
     def _layers(self, scene: Scene, basis, sun, wb) -> list[Layer]:
         cam = scene.camera.position
         layers = []
-        water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
-        body = water_lin * (0.45 + 0.55 * scene.turbidity) * (
-            scene.ambient + SUN * max(sun[2], 0.0) * 0.55)
-        cos_sun_t = float(refracted_cos(max(sun[2], 0.05)))
+        _, _, body, cos_sun_t = _water_light(scene, sun)
         for i, pl in enumerate(scene.placements):
             src = (self.objects if pl.kind == "object" else self.clutter)[pl.model]
             layer = self._layer(i, pl, src, scene, basis, cam, sun, wb, body, cos_sun_t)
@@ -615,13 +606,18 @@ def _tilted_heights(prepared: tuple, vb: np.ndarray, src: SpriteSource, level: i
     return alpha, albedo, normal, np.where(covered, tilted, 0.0).astype(np.float32), lowest
 
 
-def srgb_mean(tex: Texture) -> np.ndarray:
-    top = tex.levels[-1]
-    return top.reshape(-1, top.shape[-1]).mean(0).astype(np.float32)
+def _water_light(scene: Scene, sun: np.ndarray) -> tuple:
+    """(water colour linear (3,), light on the surface, water body radiance (3,) -- brighter
+    and more opaque with turbidity --, cosine of the refracted sun angle under water)."""
+    water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
+    light = scene.ambient + SUN * max(sun[2], 0.0) * 0.55
+    body = water_lin * (0.45 + 0.55 * scene.turbidity) * light
+    cos_sun_t = float(refracted_cos(max(sun[2], 0.05)))
+    return water_lin, light, body, cos_sun_t
 
 
 def _centre_gsd(model: CameraModel, pose) -> float:
-    """Metres per pixel (along x) at the image centre of an oblique view."""
+    """Metres per pixel (along x) at the image centre (altitude / fx straight down)."""
     p = math.radians(pose.pitch)
     dist = pose.altitude / math.sin(p)
     return dist / model.fx

@@ -161,8 +161,6 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
             raise UserError(f"--size {args.size} is out of range: use 1 to 20000 pixels")
         given.setdefault("width", args.size)
         given.setdefault("height", args.size)
-    if "sensor_px" in given:
-        given["sensor_px"] = given["sensor_px"]
     return GeneratorConfig.from_mapping(given, config, "flags")
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -96,6 +97,12 @@ class Texture:
     period: int
     pitch: float
 
+    @cached_property
+    def mean(self) -> np.ndarray:
+        """(C,) float32 mean value of each channel (from the coarsest level)."""
+        top = self.levels[-1]
+        return top.reshape(-1, top.shape[-1]).mean(0).astype(np.float32)
+
     def view(self, x0: float, y0: float, width_m: float, height_m: float,
              out_w: int, out_h: int) -> np.ndarray:
         """The axis-aligned ground rectangle from (x0, y0) metres, ``width_m`` x
@@ -154,6 +161,16 @@ def _spectral_noise(rng: np.random.Generator, n: int, amplitude: np.ndarray) -> 
     return field / max(field.std(), 1e-12)
 
 
+def _frequencies(n: int, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """FFT frequency grids (n, n) of a periodic tile of n pixels of ``pitch`` metres: kx,
+    ky and |k| in cycles per metre (|k| set to 1 at the zero frequency, to divide by)."""
+    k = np.fft.fftfreq(n, d=pitch)
+    kx, ky = np.meshgrid(k, k)
+    kk = np.hypot(kx, ky)
+    kk[0, 0] = 1.0
+    return kx, ky, kk
+
+
 def wave_tile(seed: int, direction_deg: float, n: int = 512, pitch: float = 0.04) -> Texture:
     """A periodic sea-surface tile: wind waves (a power-law spectrum, mostly along
     ``direction_deg`` in the tile frame, x to the right, y down) plus a swell.
@@ -161,10 +178,7 @@ def wave_tile(seed: int, direction_deg: float, n: int = 512, pitch: float = 0.04
     Returns a :class:`Texture` of 3 uint8 channels (see the module docstring).
     """
     rng = np.random.default_rng([seed, 7919, int(round(direction_deg * 10))])
-    k = np.fft.fftfreq(n, d=pitch)  # cycles per metre
-    kx, ky = np.meshgrid(k, k)
-    kk = np.hypot(kx, ky)
-    kk[0, 0] = 1.0
+    kx, ky, kk = _frequencies(n, pitch)
     theta = math.radians(direction_deg)
     cos_d = (kx * math.cos(theta) + ky * math.sin(theta)) / kk
     spread = 0.35 + 0.65 * cos_d ** 2  # waves travel mostly along the wind
@@ -186,12 +200,9 @@ def floor_tile(seed: int, rocks: float, n: int = 512, pitch: float = 0.04) -> Te
     """A periodic sea-floor albedo tile (sRGB uint8, 3 channels): rippled sand with rocks
     and debris covering about ``rocks`` (0..1) of the area."""
     rng = np.random.default_rng([seed, 104729])
-    k = np.fft.fftfreq(n, d=pitch)
-    kx, ky = np.meshgrid(k, k)
-    kk = np.hypot(kx, ky)
-    kk[0, 0] = 1.0
+    kx, ky, kk = _frequencies(n, pitch)
     coarse = _spectral_noise(rng, n, kk ** -1.6 * (kk > 0.1))
-    ripples = _spectral_noise(rng, n, np.exp(-((kk - 1.5) / 0.3) ** 2) * (np.abs(kx) > ky * 0))
+    ripples = _spectral_noise(rng, n, np.exp(-((kk - 1.5) / 0.3) ** 2) * (kx != 0))
     sand = np.array([150, 134, 100], np.float32)
     shade = 1.0 + 0.10 * coarse + 0.05 * ripples
     img = sand[None, None, :] * shade[..., None]
@@ -224,10 +235,7 @@ def floor_tile(seed: int, rocks: float, n: int = 512, pitch: float = 0.04) -> Te
 def land_tile(seed: int, n: int = 256, pitch: float = 0.25) -> Texture:
     """A periodic land-cover tile (sRGB uint8, 3 channels): grass, scrub and bare soil."""
     rng = np.random.default_rng([seed, 15485863])
-    k = np.fft.fftfreq(n, d=pitch)
-    kx, ky = np.meshgrid(k, k)
-    kk = np.hypot(kx, ky)
-    kk[0, 0] = 1.0
+    _, _, kk = _frequencies(n, pitch)
     a = _spectral_noise(rng, n, kk ** -1.5 * (kk > 0.02))
     b = _spectral_noise(rng, n, kk ** -0.8 * (kk > 0.02))
     grass = np.array([70, 96, 48], np.float32)

@@ -132,11 +132,16 @@ def _write(path: Path, data: bytes) -> None:
 _WORKER: dict = {}
 
 
-def _init_worker(out: str) -> None:
+def _init_worker(out: str, rebuild) -> None:
+    """Set up a pool worker; ``rebuild`` = (config, sprites folder) where the generator was
+    not inherited through fork."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and stops workers with SIGTERM
     cv2.setNumThreads(1)
     _WORKER["out"] = Path(out)
+    if rebuild is not None:
+        config, sprites = rebuild
+        _WORKER["gen"] = Generator(config, sprites, progress=False)
 
 
 def _work(indices: list[int]) -> list[dict]:
@@ -146,22 +151,20 @@ def _work(indices: list[int]) -> list[dict]:
 
 def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> Iterable[list]:
     """Records per chunk, in order, from this process or a pool of workers."""
+    _WORKER["gen"] = gen  # forked workers inherit it: textures and sprites for free
     if options.workers <= 1 or len(chunks) <= 1:
-        _WORKER["gen"] = gen
         _WORKER["out"] = options.out
         for c in chunks:
             yield _work(c)
         return
-    # fork shares the built generator (textures, sprites) with the workers for free
     methods = mp.get_all_start_methods()
     ctx = mp.get_context("fork" if "fork" in methods else "spawn")
-    _WORKER["gen"] = gen
     # OpenCV's thread pool does not survive fork (children deadlock in their first
     # parallel call): stop it while the workers are forked, then restore it
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:
-        pool = ctx.Pool(options.workers, initializer=_init_worker_with,
+        pool = ctx.Pool(options.workers, initializer=_init_worker,
                         initargs=(str(options.out), None if ctx.get_start_method() == "fork"
                                   else (gen.config, str(options.sprites_dir))))
     finally:
@@ -172,13 +175,6 @@ def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> It
         except BaseException:
             pool.terminate()
             raise
-
-
-def _init_worker_with(out: str, rebuild) -> None:
-    _init_worker(out)
-    if rebuild is not None:
-        config, sprites = rebuild
-        _WORKER["gen"] = Generator(config, sprites, progress=False)
 
 
 # --------------------------------------------------------------------------- the run
