@@ -14,6 +14,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -23,6 +24,8 @@ from sdcomp.generator import Generator
 from sdcomp.writer import RunOptions, run
 
 TARGETS = {"disk_416": 1000.0, "memory_416": 1500.0, "disk_full": 10.0}
+HUGE = 30_000  # pixels: the paper's largest frames, HUGE x HUGE
+HUGE_LIMITS = {"peak_mib": 6 * 1024, "seconds": 120.0}  # the reliability issue's limits
 
 
 @pytest.fixture(scope="module")
@@ -83,8 +86,9 @@ def _time_runs(benchmark, config: GeneratorConfig, gen: Generator, tmp_path: Pat
     benchmark.pedantic(once, rounds=rounds, iterations=1)
 
 
-def _peak_rss_mib(n: int, out: Path, sprites: Path) -> float:
-    """Peak resident memory (MiB) of the generator command and its workers for ``n``."""
+def _peak_rss_mib(n: int, out: Path, sprites: Path, *extra: str) -> float:
+    """Peak resident memory (MiB) of the generator command and its workers for ``n``
+    (``extra``: more command-line options)."""
     code = (
         "import resource, sys\n"
         "from sdcomp.errors import run_cli\n"
@@ -95,7 +99,7 @@ def _peak_rss_mib(n: int, out: Path, sprites: Path) -> float:
         "print('PEAK', max(me, kids) / 1024.0)\n"
         "sys.exit(rc)\n")
     res = subprocess.run([sys.executable, "-c", code, "--n", str(n), "--out", str(out),
-                          "--workers", "2", "--sprites", str(sprites), "--no-progress"],
+                          "--workers", "2", "--sprites", str(sprites), "--no-progress", *extra],
                          capture_output=True, text=True, check=True,
                          env={**os.environ, "PYTHONHASHSEED": "0"})
     line = [ln for ln in res.stdout.splitlines() if ln.startswith("PEAK")][0]
@@ -117,3 +121,26 @@ def test_bench_memory_flat(benchmark, sprites_dir, tmp_path, big):
     counts = json.loads((tmp_path / "big" / "dataset.json").read_text())["counts"]
     assert counts["images"] == big
     assert ratio <= 1.10
+
+
+def test_bench_huge_frame(benchmark, sprites_dir, tmp_path):
+    """One 30000 x 30000 frame with its mask and COCO entry, written by the command line:
+    peak memory <= 6 GB and wall time <= 2 minutes. Low altitude, several objects, motion
+    and defocus blur and noise: the expensive case."""
+    out = tmp_path / "huge"
+    options = ("--size", str(HUGE), "--altitude", "10", "--count", "4", "--motion-blur", "1",
+               "--defocus-blur", "1", "--noise", "3", "--seed", "2")
+    start = time.perf_counter()
+    peak = benchmark.pedantic(_peak_rss_mib, args=(1, out, sprites_dir, *options), rounds=1,
+                              iterations=1)
+    secs = time.perf_counter() - start
+    benchmark.extra_info.update(peak_mib=round(peak, 1), seconds=round(secs, 1),
+                                **{f"limit_{k}": v for k, v in HUGE_LIMITS.items()})
+    print(f"\nhuge frame {HUGE}x{HUGE}: {secs:.1f} s, peak {peak:.0f} MiB")
+    coco = json.loads((out / "annotations" / "instances_train.json").read_text())
+    assert coco["images"][0]["width"] == coco["images"][0]["height"] == HUGE
+    assert coco["annotations"], "the frame should show objects at 10 m"
+    assert (out / "images" / "000000.jpg").stat().st_size > 0
+    assert (out / "masks" / "000000.png").stat().st_size > 0
+    assert peak <= HUGE_LIMITS["peak_mib"]
+    assert secs <= HUGE_LIMITS["seconds"]

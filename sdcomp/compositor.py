@@ -54,6 +54,8 @@ from .water import (
 MASK_THRESHOLD = 0.5
 GRID = 16  # pixels between samples of the smooth background terms
 BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
+BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
+BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
 GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
@@ -129,10 +131,8 @@ class Compositor:
         rng = np.random.default_rng([config.seed, 31337])
         nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
         noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
-        noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
-        if h > 1024 or w > 1024:  # large frames: repeat the tile once, here
-            noise = np.tile(noise, (math.ceil(h / nh) + 1, math.ceil(w / nw) + 1, 1))
-        self.noise = noise
+        # one tile; frames larger than it get it added block by block (_add_noise)
+        self.noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
         # large frames: the background (smooth light, textures magnified from their
         # few-centimetre pitch) is drawn at most BACKGROUND_MAX wide and resized
         self._bg = self
@@ -549,26 +549,67 @@ class Compositor:
                 inst.amodal_area = int(full.sum())
             out.append(inst)
         if len(out) != len(objs):
-            instances = relabel[instances]
+            # renumber inside each object's box (frames can be huge), in increasing old id:
+            # new ids never exceed old ones, so a renumbered pixel is not matched again
+            for lay in sorted(objs, key=lambda lay: ids[lay.placement]):
+                old = ids[lay.placement]
+                x0, y0, x1, y1 = lay.roi
+                win = instances[y0:y1, x0:x1]
+                win[win == old] = relabel[old]
         return instances, out, n_objects - len(out)
 
     # ------------------------------------------------------------------ effects
     def _finish(self, image: np.ndarray, scene: Scene, rng) -> np.ndarray:
         """Blur and sensor noise on the uint8 image."""
         fx = scene.effects
-        if fx.motion_blur is not None:
-            image = cv2.filter2D(image, -1, _motion_kernel(*fx.motion_blur),
-                                 borderType=cv2.BORDER_REFLECT)
-        if fx.defocus_blur is not None:
-            image = cv2.GaussianBlur(image, (0, 0), fx.defocus_blur)
+        h, w = image.shape[:2]
+        if max(h, w) > BLUR_EXACT_MAX and (fx.motion_blur or fx.defocus_blur):
+            # huge frames: the blur kernels grow with the frame (hundreds of pixels at
+            # 30000 px); blur a copy reduced to BLUR_WORK_SIZE and magnify it back into
+            # the frame (detail finer than the reduction factor, 8 px at 30000, is lost);
+            # an integer factor takes OpenCV's fast area-averaging path
+            f = math.ceil(max(h, w) / BLUR_WORK_SIZE)
+            small = cv2.resize(image, (max(1, round(w / f)), max(1, round(h / f))),
+                               interpolation=cv2.INTER_AREA)
+            if fx.motion_blur is not None:
+                length, angle = fx.motion_blur
+                small = cv2.filter2D(small, -1, _motion_kernel(length / f, angle),
+                                     borderType=cv2.BORDER_REFLECT)
+            if fx.defocus_blur is not None:
+                small = cv2.GaussianBlur(small, (0, 0), fx.defocus_blur / f)
+            cv2.resize(small, (w, h), dst=image, interpolation=cv2.INTER_LINEAR)
+        else:
+            if fx.motion_blur is not None:
+                image = cv2.filter2D(image, -1, _motion_kernel(*fx.motion_blur),
+                                     borderType=cv2.BORDER_REFLECT)
+            if fx.defocus_blur is not None:
+                image = cv2.GaussianBlur(image, (0, 0), fx.defocus_blur)
         if fx.noise > 0:
-            h, w = image.shape[:2]
-            noise = self.noise
-            oy = int(rng.integers(noise.shape[0] - h + 1))
-            ox = int(rng.integers(noise.shape[1] - w + 1))
-            s = fx.noise / NOISE_SCALE
-            image = cv2.addWeighted(image, 1.0, noise[oy:oy + h, ox:ox + w], s, -128.0 * s)
+            image = _add_noise(image, self.noise, fx.noise / NOISE_SCALE, rng)
         return image
+
+
+def _add_noise(image: np.ndarray, noise: np.ndarray, s: float, rng) -> np.ndarray:
+    """``image + s * (noise - 128)`` for a uint8 (H, W, 3) ``image`` and a uint8 noise tile
+    (at least 1021 pixels larger than the image in each direction up to 1024 pixels).
+    A frame that fits the tile gets a random window of it (a new array); a larger frame
+    gets the tile added block by block in place (frames of gigabytes are not copied), at a
+    random offset."""
+    h, w = image.shape[:2]
+    nh, nw = noise.shape[:2]
+    if h <= nh and w <= nw:
+        oy = int(rng.integers(nh - h + 1))
+        ox = int(rng.integers(nw - w + 1))
+        return cv2.addWeighted(image, 1.0, noise[oy:oy + h, ox:ox + w], s, -128.0 * s)
+    oy, ox = int(rng.integers(nh)), int(rng.integers(nw))
+    for y in range(-oy, h, nh):
+        for x in range(-ox, w, nw):
+            ty0, tx0 = max(y, 0), max(x, 0)
+            ty1, tx1 = min(y + nh, h), min(x + nw, w)
+            block = image[ty0:ty1, tx0:tx1]
+            cv2.addWeighted(block, 1.0, noise[ty0 - y:ty1 - y, tx0 - x:tx1 - x], s,
+                            -128.0 * s, dst=block)
+    return image
 
 
 def _motion_kernel(length: float, angle: float) -> np.ndarray:

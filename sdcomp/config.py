@@ -84,8 +84,8 @@ FLOAT_BOUNDS: dict[str, tuple[float, float, str]] = {
 INT_BOUNDS: dict[str, tuple[int, int]] = {
     "n": (1, 100_000_000),
     "seed": (0, 2**63 - 1),
-    "width": (1, 20_000),
-    "height": (1, 20_000),
+    "width": (1, 32_000),
+    "height": (1, 32_000),
     "min_visible_px": (1, 100_000_000),
 }
 

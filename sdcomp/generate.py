@@ -158,7 +158,7 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
              if getattr(args, f.name, None) is not None}
     if args.size is not None:
         if args.size < 1:
-            raise UserError(f"--size {args.size} is out of range: use 1 to 20000 pixels")
+            raise UserError(f"--size {args.size} is out of range: use 1 to 32000 pixels")
         given.setdefault("width", args.size)
         given.setdefault("height", args.size)
     return GeneratorConfig.from_mapping(given, config, "flags")

@@ -87,7 +87,7 @@ def make_record(gen: Generator, index: int, out: Path) -> dict:
     config = gen.config
     frame = gen.render(index)
     q = frame.scene.effects.jpeg_quality
-    bgr = cv2.cvtColor(frame.image, cv2.COLOR_RGB2BGR)
+    bgr = _rgb_to_bgr_in_place(frame.image)
     if config.image_format == "jpg":
         ok, data = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, q])
     else:
@@ -118,6 +118,17 @@ def make_record(gen: Generator, index: int, out: Path) -> dict:
              "mask_file": mask_name, "meta": metadata(frame)}
     return {"index": index, "split": split_of(config.seed, index, config.val_fraction),
             "image": image, "annotations": anns}
+
+
+def _rgb_to_bgr_in_place(image: np.ndarray, band_bytes: int = 1 << 24) -> np.ndarray:
+    """Swap an (H, W, 3) uint8 image to OpenCV's BGR order in place, in bands of rows (a
+    30000 x 30000 frame is 2.7 GB: no room for a whole copy, which OpenCV makes even when
+    asked to convert in place). Returns ``image``."""
+    rows = max(1, band_bytes // max(1, image.shape[1] * 3))
+    for y in range(0, image.shape[0], rows):
+        band = image[y:y + rows]
+        cv2.cvtColor(band, cv2.COLOR_RGB2BGR, dst=band)
+    return image
 
 
 def _write(path: Path, data: bytes) -> None:

@@ -449,3 +449,54 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
     assert meta["turbidity"] == round(sc.turbidity, 4)
     assert meta["water_color"] in ("brown", "blue", "green")
     assert meta["objects_placed"] - meta["objects_dropped"] == n
+
+
+# --------------------------------------------------------------------------- 8. huge frames
+
+def test_noise_is_added_block_by_block_to_frames_larger_than_the_tile():
+    from sdcomp.compositor import _add_noise
+
+    rng = np.random.default_rng(3)
+    tile = rng.integers(0, 256, (7, 5, 3), dtype=np.uint8)
+    image = rng.integers(0, 256, (23, 17, 3), dtype=np.uint8)
+    before = image.copy()
+    out = _add_noise(image, tile, 0.5, np.random.default_rng(11))
+    assert out is image  # in place: no second copy of a huge frame
+    offsets = np.random.default_rng(11)
+    oy, ox = int(offsets.integers(7)), int(offsets.integers(5))
+    ys = (np.arange(23) + oy) % 7
+    xs = (np.arange(17) + ox) % 5
+    field = tile[ys[:, None], xs[None, :]]  # the tile repeated from the random offset
+    want = cv2.addWeighted(before, 1.0, field, 0.5, -64.0)
+    assert np.array_equal(out, want)
+    small = rng.integers(0, 256, (4, 3, 3), dtype=np.uint8)  # fits: a window, a new array
+    assert _add_noise(small, tile, 0.5, np.random.default_rng(11)) is not small
+
+
+def test_huge_frame_blur_is_done_on_a_reduced_copy_in_place(monkeypatch, rov):
+    import sdcomp.compositor as comp
+
+    monkeypatch.setattr(comp, "BLUR_EXACT_MAX", 100)
+    monkeypatch.setattr(comp, "BLUR_WORK_SIZE", 50)
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 256, (150, 200, 3), dtype=np.uint8)  # white noise: all detail
+    scene = rov.scene(0)
+    fx = replace(NO_EFFECTS, motion_blur=(24.0, 30.0))
+    out = rov.compositor._finish(image.copy(), replace(scene, effects=fx), rng)
+    assert out.shape == image.shape and out.dtype == np.uint8
+    # blurred: the pixel-to-pixel detail is gone, the mean brightness stays
+    assert np.abs(np.diff(out.astype(np.int16), axis=1)).mean() < 0.2 * np.abs(
+        np.diff(image.astype(np.int16), axis=1)).mean()
+    assert abs(float(out.mean()) - float(image.mean())) < 2.0
+    target = image.copy()
+    fx = replace(NO_EFFECTS, defocus_blur=8.0)
+    assert rov.compositor._finish(target, replace(scene, effects=fx), rng) is target
+
+
+def test_rgb_to_bgr_in_place_by_bands():
+    from sdcomp.writer import _rgb_to_bgr_in_place
+
+    image = np.random.default_rng(1).integers(0, 256, (37, 11, 3), dtype=np.uint8)
+    want = image[..., ::-1].copy()
+    assert _rgb_to_bgr_in_place(image, band_bytes=100) is image  # 3 rows per band
+    assert np.array_equal(image, want)
