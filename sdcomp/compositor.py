@@ -356,12 +356,11 @@ class Compositor:
         g = float(np.mean(gain))
         bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, foam))
         win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or foam is
-        img = image[win].astype(np.float32)
-        m = (mask[win].astype(np.float32) * (1.0 / 255.0))[..., None]
-        img = img * (1 - m) + tex[win].astype(np.float32) * (g * m)
-        f = (foam[win].astype(np.float32) * (0.7 / 255.0))[..., None]
-        img = img * (1 - f) + 230.0 * g * f
-        image[win] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
+        m = mask[win].astype(np.float32) * np.float32(1.0 / 255.0)
+        land = cv2.blendLinear(image[win], cv2.convertScaleAbs(tex[win], alpha=g), 1.0 - m, m)
+        f = foam[win].astype(np.float32) * np.float32(0.7 / 255.0)
+        white = np.full_like(land, min(255, round(230.0 * g)))
+        image[win] = cv2.blendLinear(land, white, 1.0 - f, f)
 
     def _add_sky(self, image, scene: Scene, gain) -> None:
         """Sky above the horizon (a sharp line), with hills on it when the scene has them."""
@@ -439,80 +438,86 @@ class Compositor:
         a = jac @ np.stack([right_w, -up_w], axis=1) * src.metres_per_pixel  # (2, 2)
         u0 = fx * xc[0] / z + model.width / 2
         v0 = fy * xc[1] / z + model.height / 2
-        scale = math.sqrt(abs(np.linalg.det(a)))
+        scale = math.sqrt(abs(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
         if scale <= 0:
             return None
-        level = int(np.clip(math.floor(math.log2(1.0 / scale)), 0, src.max_level)) \
+        level = min(max(math.floor(math.log2(1.0 / scale)), 0), src.max_level) \
             if scale < 1 else 0
         n = src.size >> level
         a_l = a * (1 << level)
-        t = np.array([u0, v0]) - 0.5 + a_l @ np.full(2, 0.5 - n / 2)
-        corners = np.array([[-0.5, -0.5], [n - 0.5, -0.5], [-0.5, n - 0.5], [n - 0.5, n - 0.5]])
-        dst = corners @ a_l.T + t
-        x0 = max(int(math.floor(dst[:, 0].min())), 0)
-        y0 = max(int(math.floor(dst[:, 1].min())), 0)
-        x1 = min(int(math.ceil(dst[:, 0].max())) + 1, model.width)
-        y1 = min(int(math.ceil(dst[:, 1].max())) + 1, model.height)
+        (a00, a01), (a10, a11) = a_l.tolist()
+        c = 0.5 - n / 2
+        tx, ty = u0 - 0.5 + (a00 + a01) * c, v0 - 0.5 + (a10 + a11) * c
+        # the sprite's corners (-0.5 and n - 0.5 in each direction) in the frame
+        lo, hi = -0.5, n - 0.5
+        xs = [a00 * p + a01 * q + tx for p in (lo, hi) for q in (lo, hi)]
+        ys = [a10 * p + a11 * q + ty for p in (lo, hi) for q in (lo, hi)]
+        x0 = max(math.floor(min(xs)), 0)
+        y0 = max(math.floor(min(ys)), 0)
+        x1 = min(math.ceil(max(xs)) + 1, model.width)
+        y1 = min(math.ceil(max(ys)) + 1, model.height)
         if x1 <= x0 or y1 <= y0:
             return None
         prepared = src.prepared(pose_i, level)
         if pl.roll or pl.pitch:
             prepared = _tilted_heights(prepared, vb, src, level, pl)
-        colour, weight = self._shade(prepared, vb, rot, sun, d_world, pl, scene, wb, body,
-                                     cos_sun_t, u0, v0)
-        stack = np.concatenate([colour, prepared[0][..., None], weight[..., None]], axis=-1,
-                               dtype=np.float32)
-        m = np.concatenate([a_l, (t - [x0, y0])[:, None]], axis=1).astype(np.float32)
+        # channels: premultiplied sRGB colour (3), coverage, weight
+        stack = np.empty(prepared[0].shape + (5,), np.float32)
+        stack[..., 3] = prepared[0]
+        self._shade(stack, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
+                    u0, v0)
+        m = np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32)
         warped = cv2.warpAffine(stack, m, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         if warped.ndim == 2:
             warped = warped[..., None]
-        alpha = np.clip(warped[..., 3], 0.0, 1.0)
+        coverage = warped[..., 3:5]  # coverage and weight, clipped to [0, 1] in place
+        np.minimum(np.maximum(coverage, 0.0, out=coverage), 1.0, out=coverage)
         # shadow on the water: under water at the depth light scatters back from (or on
         # the floor in clear water), displaced away from the sun
         c = scene.attenuation
         d_s = min(1.0 / c, scene.floor_depth)
-        sun_h = math.hypot(sun[0], sun[1])
-        tan_t = (sun_h / REFRACTIVE_INDEX) / max(cos_sun_t, 0.05)
-        disp = np.array([-sun[0] / max(sun_h, 1e-9) * d_s * tan_t,
-                         -sun[1] / max(sun_h, 1e-9) * d_s * tan_t, -d_s / REFRACTIVE_INDEX])
-        off = jac @ disp
+        sx, sy, sz = (float(v) for v in sun)
+        sun_h = max(math.hypot(sx, sy), 1e-9)
+        k = d_s * (sun_h / REFRACTIVE_INDEX) / max(cos_sun_t, 0.05) / sun_h
+        off = jac @ np.array([-sx * k, -sy * k, -d_s / REFRACTIVE_INDEX])
         t_floor = math.exp(-c * scene.floor_depth * 2)
         strength = 0.45 * (1 - math.exp(-2 * c * d_s)) + 0.45 * t_floor
-        gsd = z / fx
-        blur = float(np.clip(0.08 * d_s / gsd, 0.0, 12.0))
-        return Layer(i, pl.kind, pl.model, z, (x0, y0, x1, y1),
-                     np.ascontiguousarray(warped[..., :3]), alpha,
-                     np.clip(warped[..., 4], 0.0, 1.0), (float(off[0]), float(off[1])),
+        blur = min(max(0.08 * d_s * fx / z, 0.0), 12.0)  # metres / (z / fx metres per px)
+        return Layer(i, pl.kind, pl.model, z, (x0, y0, x1, y1), warped[..., :3],
+                     warped[..., 3], warped[..., 4], (float(off[0]), float(off[1])),
                      float(strength), blur)
 
-    def _shade(self, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
-               u0, v0):
-        """Relit, submerged, premultiplied sRGB colour (n, n, 3) and weight (n, n)."""
+    def _shade(self, out, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
+               u0, v0) -> None:
+        """Write the relit, submerged, premultiplied sRGB colour (0..255) of ``prepared`` to
+        ``out[..., :3]`` and its weight (coverage x water transmittance) to ``out[..., 4]``
+        (``out``: (n, n, 5) float32)."""
         alpha, albedo, normal, height, lowest = prepared
         sun_view = (vb @ (rot.T @ sun)).astype(np.float32)
         lambert = normal @ sun_view
         np.maximum(lambert, 0.0, out=lambert)
         light = scene.ambient + (SUN * 0.5 * float(sun[2] > 0)) * lambert
-        lin = albedo * np.asarray(pl.tint, np.float32) * light[..., None]
-        if pl.draft > lowest:  # some of it is under water
-            depth = np.maximum(pl.draft - height, 0.0)  # metres under the surface
-            cos_t = float(refracted_cos(d_world[2]))
-            trans = np.exp(-scene.attenuation * (1.0 / cos_t + 1.0 / cos_sun_t) * depth)
-            trans = trans.astype(np.float32)
-            r = float(fresnel(d_world[2]))
-            sky = sky_linear(d_world[2])
-            t3 = trans[..., None]
-            submerged = (lin * t3 + body * (1 - t3)) * (1 - r) + sky * r
-            lin = np.where((depth > 0)[..., None], submerged, lin)
-            weight = alpha * trans
-        else:
-            weight = alpha
         w, h = self.model.width, self.model.height
         r2 = ((u0 - w / 2) ** 2 + (v0 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
         gain = wb * (1.0 - scene.effects.vignetting * min(r2, 1.0))
-        srgb = linear_to_srgb(lin * gain)
-        return srgb * (255.0 * alpha[..., None]), weight
+        tint = np.asarray(pl.tint, np.float32)
+        if pl.draft > lowest:  # some of it is under water
+            lin = albedo * tint * light[..., None]
+            depth = np.maximum(pl.draft - height, 0.0)  # metres under the surface
+            cz = float(d_world[2])
+            cos_t = float(refracted_cos(cz))
+            trans = np.exp(-scene.attenuation * (1.0 / cos_t + 1.0 / cos_sun_t) * depth)
+            trans = trans.astype(np.float32)
+            r = float(fresnel(cz))
+            t3 = trans[..., None]
+            submerged = (lin * t3 + body * (1 - t3)) * (1 - r) + sky_linear(cz) * r
+            lin = np.where((depth > 0)[..., None], submerged, lin) * gain
+            np.multiply(alpha, trans, out=out[..., 4])
+        else:
+            lin = albedo * (light[..., None] * (tint * gain))
+            out[..., 4] = alpha
+        np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
 
     # ------------------------------------------------------------------ masks
     def _masks(self, scene: Scene, layers: list[Layer], amodal: bool):
@@ -626,25 +631,33 @@ def _motion_kernel(length: float, angle: float) -> np.ndarray:
 def _tilted_heights(prepared: tuple, vb: np.ndarray, src: SpriteSource, level: int,
                     pl) -> tuple:
     """``prepared`` with heights above the sea of the body tilted by the placement's roll
-    and pitch (the atlas stores heights of the level body). Each pixel's surface point is
-    rebuilt in the body frame from its sprite position, its level height and the view
-    basis ``vb`` (rows right, up, toward), then tilted about the waterline point."""
+    and pitch (the atlas stores heights of the level body).
+
+    A pixel at sprite position (x right, y up, metres from the body origin) with level
+    height ``h`` is the body-frame point ``p = x r + y u + d t`` (``vb`` rows r, u, t:
+    right, up, toward) whose z is ``h + waterline``, so ``d = (h + wl - x r_z - y u_z) /
+    t_z``. Its tilted height about the waterline point is ``row . p - wl row_z`` with
+    ``row`` the tilt matrix's last row: linear in (x, y, h), computed as
+    ``h * k + plane(x, y)``.
+    """
     alpha, albedo, normal, height, _ = prepared
     n = alpha.shape[0]
     pitch_m = src.metres_per_pixel * (1 << level)
-    c = (np.arange(n, dtype=np.float32) + 0.5 - n / 2) * pitch_m
-    x, y = c[None, :], -c[:, None]  # sprite right, up (metres from the body origin)
+    c = (np.arange(n, dtype=np.float32) + np.float32(0.5 - n / 2)) * np.float32(pitch_m)
     wl = src.waterline
-    toward_z = max(float(vb[2, 2]), 1e-3)
-    z = height + wl  # body-frame z of the surface point
-    d = (z - x * vb[0, 2] - y * vb[1, 2]) / toward_z  # its depth along the view axis
-    p = x[..., None] * vb[0] + y[..., None] * vb[1] + d[..., None] * vb[2]  # (n, n, 3)
-    p[..., 2] -= wl
-    row = tilt_matrix(pl.roll, pl.pitch)[2].astype(np.float32)
-    tilted = (p @ row).astype(np.float32)
+    row = tilt_matrix(pl.roll, pl.pitch)[2]
+    r_, u_, t_ = vb
+    k = float(t_ @ row) / max(float(t_[2]), 1e-3)
+    kx = float(r_ @ row) - k * float(r_[2])
+    ky = float(u_ @ row) - k * float(u_[2])
+    const = k * wl - wl * float(row[2])
+    # x = c along columns, y = -c along rows
+    plane = (c * np.float32(kx))[None, :] + (c * np.float32(-ky) + np.float32(const))[:, None]
+    tilted = height * np.float32(k) + plane
     covered = alpha > 1e-6
+    tilted[~covered] = 0.0
     lowest = float(tilted[covered].min()) if covered.any() else 0.0
-    return alpha, albedo, normal, np.where(covered, tilted, 0.0).astype(np.float32), lowest
+    return alpha, albedo, normal, tilted, lowest
 
 
 def _water_light(scene: Scene, sun: np.ndarray) -> tuple:
