@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import logging
 import math
 import os
 import shlex
@@ -379,8 +380,10 @@ def ensure_atlas(mesh: ColoredMesh, config: AtlasConfig, out_dir: str | Path, *,
                 if sheet and not png.exists():
                     write_contact_sheet(atlas, png)
                 return atlas, False
-        except AtlasError:
-            pass  # stale or damaged: rebuild below
+        except AtlasError as e:  # damaged: say which file, then rebuild it below
+            logging.getLogger("sdcomp.atlas").warning(
+                "the sprite atlas %s is damaged or unreadable (%s); rebuilding it",
+                idx, str(e).split(": rebuild it")[0])
     atlas = build_atlas(mesh, config, workers=workers, progress=progress)
     save_atlas(atlas, out_dir, rebuild_command)
     if sheet:

@@ -172,9 +172,28 @@ class Journal:
             lines.append(_dumps(rec))
         if not lines:
             return
-        self._file.write(("\n".join(lines) + "\n").encode("utf-8"))
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        start = self._file.tell()
+        try:
+            self._file.write(("\n".join(lines) + "\n").encode("utf-8"))
+            self._file.flush()
+            os.fsync(self._file.fileno())
+        except BaseException:  # disk full, Ctrl-C: leave no half record for the next append
+            self._cut(start)
+            raise
+
+    def _cut(self, size: int) -> None:
+        """Drop what a failed append wrote or still buffers: the file ends at ``size``."""
+        try:
+            self._file.close()  # may fail again flushing the buffer: the cut follows anyway
+        except OSError:
+            pass
+        try:
+            os.truncate(self.path, size)
+        except OSError:
+            pass  # a partial last line then remains, which readers skip and reopening cuts
+        self._file = open(self.path, "ab")
+        if self._file.tell() != size:
+            truncate_journal(self.path)
 
     def close(self) -> None:
         self._file.close()

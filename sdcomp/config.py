@@ -11,6 +11,8 @@ Precedence: defaults < ``--preset`` < ``--config FILE`` < flags on the command l
 
 from __future__ import annotations
 
+import difflib
+import json
 import math
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -26,6 +28,8 @@ from .water import WATER_COLORS, parse_water
 #: clutter kinds (procedural meshes in :mod:`sdcomp.clutter`)
 CLUTTER_KINDS = ("buoy", "log", "boat", "foam")
 IMAGE_FORMATS = ("jpg", "png")
+#: annotation formats of --format (COCO JSON, Ultralytics YOLO label files)
+LABEL_FORMATS = ("coco", "yolo")
 MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 digits)
 
 
@@ -37,7 +41,7 @@ class ObjectSpec:
     category: str = ""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.mesh, str) or not self.mesh.strip():
+        if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
             raise UserError("--object needs a built-in mesh name (bluerov2, bluerov2-heavy) "
                             "or a mesh file path")
         if not self.category:
@@ -106,6 +110,8 @@ class GeneratorConfig:
     jpeg_quality: Param = "90-95"  # type: ignore[assignment]
     min_visible_px: int = 4
     amodal: bool = False
+    format: tuple[str, ...] = ("coco",)  # annotation formats (do not change the images)
+    yolo_seg: bool = False  # YOLO polygon labels instead of boxes
     # camera
     camera: str = "mavic2pro"
     fov: float | None = None
@@ -158,9 +164,10 @@ class GeneratorConfig:
             put(name, _check_float(getattr(self, name), name, lo, hi, unit))
         for name, (lo, hi) in INT_BOUNDS.items():
             put(name, _check_int(getattr(self, name), name, lo, hi))
-        for name in ("amodal", "shadows"):
+        for name in ("amodal", "shadows", "yolo_seg"):
             if not isinstance(getattr(self, name), bool):
                 raise UserError(f"{_flag(name)} must be true or false")
+        put("format", _label_formats(self.format))
         if self.image_format not in IMAGE_FORMATS:
             raise UserError(f"--image-format {self.image_format!r} is unknown; use "
                             f"{' or '.join(IMAGE_FORMATS)}")
@@ -179,17 +186,19 @@ class GeneratorConfig:
             put("sensor_px", sp)
         self.camera_model()  # validates the combination
         # water
-        water = (self.water,) if isinstance(self.water, str) else tuple(self.water)
+        water = _seq(self.water, "water")
         if not water:
             raise UserError("--water needs at least one colour: "
                             f"{', '.join(WATER_COLORS)} or R,G,B")
         put("water", tuple(_water_text(w) for w in water))
         if self.backgrounds is not None:
+            if not isinstance(self.backgrounds, (str, Path)) or "\0" in str(self.backgrounds):
+                raise UserError(f"--backgrounds {self.backgrounds!r} must be a folder path")
             put("backgrounds", str(self.backgrounds))
         # objects
         objs = self.objects
-        if isinstance(objs, (ObjectSpec, str, dict)):
-            objs = (objs,)
+        objs = (objs,) if isinstance(objs, (ObjectSpec, dict)) else _seq(objs, "objects",
+                                                                          "--object")
         specs = []
         for o in objs:
             if isinstance(o, str):
@@ -197,8 +206,8 @@ class GeneratorConfig:
             elif isinstance(o, dict):
                 unknown = set(o) - {"mesh", "category"}
                 if unknown:
-                    raise UserError(f"objects: unknown key {sorted(unknown)[0]!r}; use mesh "
-                                    f"and category")
+                    raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
+                                    f"use mesh and category")
                 o = ObjectSpec(**o)
             elif not isinstance(o, ObjectSpec):
                 raise UserError(f"--object {o!r} is not a mesh name or path")
@@ -209,8 +218,7 @@ class GeneratorConfig:
         if len(set(names)) != len(names):
             raise UserError(f"--category names must differ between objects: {names}")
         put("objects", tuple(specs))
-        kinds = (self.clutter_kinds,) if isinstance(self.clutter_kinds, str) else tuple(
-            self.clutter_kinds)
+        kinds = _seq(self.clutter_kinds, "clutter_kinds")
         for k in kinds:
             if k not in CLUTTER_KINDS:
                 raise UserError(f"--clutter-kinds {k!r} is unknown; use some of "
@@ -248,6 +256,19 @@ class GeneratorConfig:
             out[f.name] = v
         return out
 
+    def to_toml(self) -> str:
+        """The whole config as TOML text; ``load_toml`` + :meth:`from_mapping` of it give an
+        equal config (``--dump-config`` prints it, ``--config FILE`` reads it back).
+
+        Unset optional fields (None) are left out: their default is None.
+        """
+        lines = [f"# sdcomp generator config: every field, resolved (sdcomp {_version()})",
+                 "# reproduce the run with: sdcomp generate --config THIS_FILE --out DIR"]
+        for key, value in self.to_dict().items():
+            if value is not None:
+                lines.append(f"{key} = {_toml_value(value)}")
+        return "\n".join(lines) + "\n"
+
     @classmethod
     def from_mapping(cls, mapping: dict, base: GeneratorConfig | None = None,
                      source: str = "config") -> GeneratorConfig:
@@ -257,7 +278,9 @@ class GeneratorConfig:
         for key, value in mapping.items():
             name = str(key).replace("-", "_")
             if name not in names:
-                raise UserError(f"{source}: unknown key {key!r}; see "
+                near = difflib.get_close_matches(name, sorted(names), n=1, cutoff=0.6)
+                hint = f"did you mean {near[0]!r}? " if near else ""
+                raise UserError(f"{source}: unknown key {key!r}; {hint}see "
                                 f"`python -m sdcomp.generate --help` for the names")
             clean[name] = value
         return replace(base or cls(), **clean)
@@ -273,7 +296,7 @@ def _check_float(v, name: str, lo: float, hi: float, unit: str) -> float:
         if isinstance(v, bool):
             raise TypeError
         x = float(v)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise UserError(f"{_flag(name)} {v!r} is not a number: use {lo:g} to {hi:g}"
                         f"{unit_s}") from None
     if not (math.isfinite(x) and lo <= x <= hi):
@@ -300,16 +323,65 @@ def _int_pair(v, name: str) -> tuple[int, int]:
         v = v.replace("x", ",").split(",")
     try:
         a, b = (int(x) for x in v)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise UserError(f"{_flag(name)} {v!r} must be WIDTH,HEIGHT in pixels") from None
     if not (1 <= a <= 100_000 and 1 <= b <= 100_000):
         raise UserError(f"{_flag(name)} {a},{b} is out of range: use 1 to 100000 pixels")
     return a, b
 
 
+def _version() -> str:
+    from . import __version__
+    return __version__
+
+
+def _toml_value(v) -> str:
+    """TOML text of a JSON-like value: bool, int, float, str, list, dict (inline table)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)  # shortest round-trip form; finite (checked), valid TOML
+    if isinstance(v, str):
+        return json.dumps(v)  # a TOML basic string
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}"
+                               for k, x in v.items()) + "}"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def _label_formats(v) -> tuple[str, ...]:
+    items = [v] if isinstance(v, str) else list(v) if isinstance(v, (list, tuple)) else None
+    if items is None or not all(isinstance(x, str) for x in items):
+        raise UserError(f"--format {v!r} must be coco, yolo or coco,yolo")
+    names = [x.strip().lower() for item in items for x in item.split(",") if x.strip()]
+    for name in names:
+        if name not in LABEL_FORMATS:
+            raise UserError(f"--format {name!r} is unknown; use coco, yolo or coco,yolo")
+    if not names:
+        raise UserError("--format needs at least one of coco, yolo")
+    return tuple(f for f in LABEL_FORMATS if f in names)  # canonical order
+
+
+def _seq(v, name: str, flag: str = "") -> tuple:
+    """A list-valued field as a tuple: one text is a list of one; UserError for the rest."""
+    if isinstance(v, str):
+        return (v,)
+    if isinstance(v, (list, tuple)):
+        return tuple(v)
+    raise UserError(f"{flag or _flag(name)} {v!r} must be a name or a list of names")
+
+
 def _water_text(w) -> str:
     if isinstance(w, (list, tuple)) and len(w) == 3:
-        w = ",".join(str(int(c)) for c in w)
+        try:
+            w = ",".join(str(int(c)) for c in w)
+        except (TypeError, ValueError, OverflowError):
+            raise UserError(f"--water {w!r} is not a colour: use a name "
+                            f"({', '.join(WATER_COLORS)}) or R,G,B of 0-255") from None
     parse_water(str(w))  # raises UserError for an unknown name or bad RGB
     return str(w)
 

@@ -18,6 +18,8 @@ from pathlib import Path
 from .config import CLUTTER_KINDS, PRESETS, GeneratorConfig, ObjectSpec, load_toml, preset
 from .errors import UserError, run_cli
 from .generator import DEFAULT_SPRITES
+from .log import add_verbosity_flags, setup_logging
+from .shards import parse_shard
 from .writer import RunOptions, run
 
 # field: (metavar, help). Defaults are appended from GeneratorConfig.
@@ -31,6 +33,9 @@ HELP: dict[str, tuple[str, str]] = {
                              "(counted as dropped)"),
     "amodal": ("", "also store amodal masks (the whole projected object, ignoring "
                    "occlusion and water)"),
+    "format": ("coco,yolo", "annotation formats: coco (JSON), yolo (Ultralytics label files, "
+                            "data.yaml) or both; never changes the images"),
+    "yolo_seg": ("", "YOLO labels are polygons traced from the masks instead of boxes"),
     "camera": ("NAME", "drone camera: mavic2pro (77 deg diagonal FOV), phantom4pro "
                        "(84 deg), or custom with --fov and --sensor-px"),
     "fov": ("DEG", "diagonal field of view, degrees (overrides the camera's)"),
@@ -99,16 +104,32 @@ def build_parser() -> argparse.ArgumentParser:
     run_g.add_argument("--workers", type=int, default=None, metavar="N",
                        help=f"worker processes (default: all cores, {_cores()} here)")
     run_g.add_argument("--resume", action="store_true",
-                       help="continue an interrupted run in --out (same options)")
+                       help="continue an interrupted run in --out (same options; default: off)")
     run_g.add_argument("--overwrite", action="store_true",
-                       help="replace the dataset in a non-empty --out")
-    run_g.add_argument("--preset", metavar="NAME", help="named settings: " + ", ".join(PRESETS))
+                       help="replace the dataset in a non-empty --out (default: off)")
+    run_g.add_argument("--preset", metavar="NAME",
+                       help="named settings: " + ", ".join(PRESETS) + " (default: none)")
     run_g.add_argument("--config", metavar="FILE", help="TOML file of options (keys as the "
-                       "flags, with _ or -)")
+                       "flags, with _ or -; default: none)")
     run_g.add_argument("--sprites", default=DEFAULT_SPRITES, metavar="DIR",
                        help="sprite atlas folder, built there if missing (default: %(default)s)")
     run_g.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                        help="progress line (default: only on a terminal)")
+    run_g.add_argument("--shard", metavar="K/N", default=None,
+                       help="render only shard K (0 to N-1) of N of the images, e.g. one task "
+                            "of a job array; join the shard folders with `python -m "
+                            "sdcomp.merge` (default: all images)")
+    run_g.add_argument("--engine", choices=("local", "dask"), default="local",
+                       help="local: worker processes on this machine; dask: shards as tasks "
+                            "on a Dask cluster, needs `pip install 'sdcomp[dask]'` "
+                            "(default: %(default)s)")
+    run_g.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="Dask scheduler of --engine dask, e.g. tcp://head:8786 (default: "
+                            "a local cluster of --workers processes)")
+    run_g.add_argument("--dump-config", action="store_true",
+                       help="print the full resolved config as TOML (for --config) and exit, "
+                            "writing nothing (default: off)")
+    add_verbosity_flags(run_g)
     run_g.add_argument("--size", type=int, metavar="PX",
                        help="square output size, sets --width and --height (default: 416)")
     defaults = GeneratorConfig()
@@ -167,18 +188,34 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    log = setup_logging(args.quiet, args.verbose)
     config = config_from_args(args)
+    if args.dump_config:
+        sys.stdout.write(config.to_toml())
+        return 0
+    if args.quiet and args.progress is None:
+        args.progress = False
+    log.debug("config:\n%s", config.to_toml())
     workers = args.workers if args.workers is not None else _cores()
     if workers < 1:
         raise UserError(f"--workers {workers} is out of range: use 1 or more")
+    shard = parse_shard(args.shard) if args.shard is not None else None
     options = RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
-                         Path(args.sprites))
+                         Path(args.sprites), shard)
     start = time.perf_counter()
-    counts = run(config, options)
+    if args.engine == "dask":
+        from .engine_dask import run_dask  # dask is optional: imported only here
+
+        counts = run_dask(config, options, args.scheduler)
+    elif args.scheduler is not None:
+        raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
+                        f"dask, or drop --scheduler")
+    else:
+        counts = run(config, options)
     secs = time.perf_counter() - start
-    print(f"wrote {counts['images']} images ({counts['train']} train, {counts['val']} val), "
-          f"{counts['annotations']} annotations, {counts['objects_dropped']} objects "
-          f"too hidden to annotate, to {options.out} in {secs:.1f} s")
+    log.info(f"wrote {counts['images']} images ({counts['train']} train, {counts['val']} "
+             f"val), {counts['annotations']} annotations, {counts['objects_dropped']} objects "
+             f"too hidden to annotate, to {options.out} in {secs:.1f} s")
     return 0
 
 

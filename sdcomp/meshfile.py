@@ -126,6 +126,10 @@ def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
     for g in geoms:
         if not np.isfinite(np.asarray(g.vertices, np.float64)).all():
             raise UserError(f"mesh file {str(path)!r} has vertices that are not finite numbers")
+        fi = np.asarray(g.faces)
+        if fi.ndim != 2 or fi.shape[1] != 3 or fi.min() < 0 or fi.max() >= len(g.vertices):
+            raise UserError(f"mesh file {str(path)!r} is damaged: its faces refer to vertices "
+                            f"it does not have; re-export it")
         verts.append(np.asarray(g.vertices, np.float64) @ rot.T)
         faces.append(np.asarray(g.faces, np.int64) + offset)
         cols.append(_face_colours(g, color))

@@ -95,7 +95,7 @@ def parse_param(value, flag: str, lo: float, hi: float, unit: str = "",
                 p = Param(float(value), float(value))
         else:
             raise ValueError
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise UserError(f"{flag} {value!r} is not valid: {form}") from None
     values = p.values
     if not all(math.isfinite(v) for v in values):

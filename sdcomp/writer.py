@@ -18,6 +18,7 @@ the number of workers and however often the run was interrupted and resumed.
 
 from __future__ import annotations
 
+import errno
 import json
 import multiprocessing as mp
 import os
@@ -26,13 +27,14 @@ import signal
 import sys
 import time
 from collections.abc import Iterable
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from . import __version__
+from . import __version__, yolo
 from .coco import Journal, crop_to_rle, iter_records, mask_to_rle, read_journal, write_coco
 from .compositor import MASK_THRESHOLD
 from .config import GeneratorConfig
@@ -40,11 +42,14 @@ from .errors import UserError
 from .fileio import atomic_write_bytes
 from .generator import DEFAULT_SPRITES, Generator, annotations, metadata
 from .pngio import encode_png16
+from .pool import imap_ordered, note
 from .progress import Progress
+from .shards import shard_range, shard_text
 
 FORMAT = "sdcomp-dataset"
 FORMAT_VERSION = 1
-OURS = ("images", "masks", "annotations", "records.jsonl", "dataset.json")
+OURS = ("images", "masks", "annotations", "records.jsonl", "dataset.json", "labels",
+        "train.txt", "val.txt", "data.yaml")
 SPLIT_BLOCK = 100  # val images are exactly round(f * 100) of every 100 consecutive ones
 CHUNK = 32  # images per task handed to a worker
 CHECKPOINT_SECONDS = 60.0  # COCO files are rewritten at least this often during a run
@@ -63,6 +68,8 @@ class RunOptions:
     overwrite: bool = False
     progress: bool | None = None
     sprites_dir: Path = Path(DEFAULT_SPRITES)
+    #: (K, N): render only shard K of N of the image indices (see sdcomp.shards)
+    shard: tuple[int, int] | None = None
 
 
 def split_of(seed: int, index: int, val_fraction: float) -> str:
@@ -113,6 +120,9 @@ def make_record(gen: Generator, index: int, out: Path) -> dict:
             rec["amodal_bbox"] = ([int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
                                    int(ys.max() - ys.min() + 1)] if len(xs) else [0, 0, 0, 0])
         anns.append(rec)
+    if "yolo" in config.format:  # before the record is returned (and journaled)
+        _write(out / "labels" / yolo.label_name(name),
+               yolo.label_text(frame.instances, anns, config.yolo_seg).encode())
     h, w = frame.instances.shape
     image = {"id": index + 1, "file_name": name, "width": w, "height": h,
              "mask_file": mask_name, "meta": metadata(frame)}
@@ -132,10 +142,15 @@ def _rgb_to_bgr_in_place(image: np.ndarray, band_bytes: int = 1 << 24) -> np.nda
 
 
 def _write(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary name (removed again on any error)."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 # --------------------------------------------------------------------------- workers
@@ -144,10 +159,8 @@ _WORKER: dict = {}
 
 
 def _init_worker(out: str, rebuild) -> None:
-    """Set up a pool worker; ``rebuild`` = (config, sprites folder) where the generator was
-    not inherited through fork."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and stops workers with SIGTERM
+    """Set up a pool worker (signals: see :mod:`sdcomp.pool`); ``rebuild`` = (config,
+    sprites folder) where the generator was not inherited through fork."""
     cv2.setNumThreads(1)
     _WORKER["out"] = Path(out)
     if rebuild is not None:
@@ -157,7 +170,11 @@ def _init_worker(out: str, rebuild) -> None:
 
 def _work(indices: list[int]) -> list[dict]:
     gen = _WORKER["gen"]
-    return [make_record(gen, i, _WORKER["out"]) for i in indices]
+    records = []
+    for i in indices:
+        note(i)  # named by WorkerDied should this image kill the worker
+        records.append(make_record(gen, i, _WORKER["out"]))
+    return records
 
 
 def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> Iterable[list]:
@@ -168,24 +185,12 @@ def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> It
         for c in chunks:
             yield _work(c)
         return
-    methods = mp.get_all_start_methods()
-    ctx = mp.get_context("fork" if "fork" in methods else "spawn")
-    # OpenCV's thread pool does not survive fork (children deadlock in their first
-    # parallel call): stop it while the workers are forked, then restore it
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    try:
-        pool = ctx.Pool(options.workers, initializer=_init_worker,
-                        initargs=(str(options.out), None if ctx.get_start_method() == "fork"
-                                  else (gen.config, str(options.sprites_dir))))
-    finally:
-        cv2.setNumThreads(threads)
-    with pool:
-        try:
-            yield from pool.imap(_work, chunks)
-        except BaseException:
-            pool.terminate()
-            raise
+    # forked workers (see sdcomp.pool) inherit the generator; spawned ones rebuild it
+    forked = "fork" in mp.get_all_start_methods()
+    yield from imap_ordered(_work, chunks, options.workers, initializer=_init_worker,
+                            initargs=(str(options.out), None if forked
+                                      else (gen.config, str(options.sprites_dir))),
+                            what="image")
 
 
 # --------------------------------------------------------------------------- the run
@@ -210,22 +215,55 @@ def prepare_output(config: GeneratorConfig, options: RunOptions) -> set[int]:
             elif p.exists():
                 p.unlink()
     elif entries and options.resume:
-        done = _resumable(config, out)
+        done = _resumable(config, out, options.shard)
     elif options.resume and not entries:
         pass  # nothing to resume: a fresh run
     try:
-        for sub in ("images", "masks", "annotations"):
+        for sub in ("images", "masks", "annotations", *_yolo_dirs(config)):
             (out / sub).mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise UserError(f"--out {out}: cannot create the folder ({e.strerror})") from None
-    for sub in ("images", "masks"):
-        for tmp in (out / sub).glob(".*.tmp"):
-            tmp.unlink(missing_ok=True)
+    _sweep_tmp(out, config)
     return done
 
 
-def _resumable(config: GeneratorConfig, out: Path) -> set[int]:
+def _sweep_tmp(out: Path, config: GeneratorConfig) -> None:
+    """Remove the temporary files a killed run can leave (``.NAME.*.tmp``)."""
+    for sub in ("images", "masks", "annotations", *_yolo_dirs(config)):
+        for tmp in (out / sub).glob(".*.tmp"):
+            tmp.unlink(missing_ok=True)
+    for tmp in out.glob(".dataset.json.*.tmp"):
+        tmp.unlink(missing_ok=True)
+
+
+def run_indices(config: GeneratorConfig, shard: tuple[int, int] | None) -> range:
+    """The image indices a run renders: all, or those of shard (K, N)."""
+    return range(config.n) if shard is None else shard_range(config.n, *shard)
+
+
+def _yolo_dirs(config: GeneratorConfig) -> tuple[str, ...]:
+    return ("labels",) if "yolo" in config.format else ()
+
+
+def _never_begun(out: Path) -> bool:
+    """Whether ``out`` holds only the empty start of a run: our folders and temporary or
+    annotation files, no image, no journal line."""
+    for p in out.iterdir():
+        if p.name not in OURS and not p.name.endswith(".tmp"):
+            return False
+        if p.name in ("images", "masks") and any(q for q in p.iterdir()
+                                                 if not q.name.endswith(".tmp")):
+            return False
+        if p.name == "records.jsonl" and p.stat().st_size:
+            return False
+    return True
+
+
+def _resumable(config: GeneratorConfig, out: Path,
+               shard: tuple[int, int] | None = None) -> set[int]:
     meta_path = out / "dataset.json"
+    if not meta_path.exists() and _never_begun(out):
+        return set()  # killed between creating the folders and writing dataset.json
     try:
         meta = json.loads(meta_path.read_text())
         if meta.get("format") != FORMAT:
@@ -235,11 +273,19 @@ def _resumable(config: GeneratorConfig, out: Path) -> set[int]:
                         f"use --overwrite to replace it or choose another --out") from None
     old = meta.get("config", {})
     new = config.to_dict()
-    diff = [k for k in new if old.get(k) != new[k]]
+    # a field the folder's sdcomp did not have yet is at its default (the old behaviour)
+    defaults = GeneratorConfig().to_dict()
+    diff = [k for k in new if old.get(k, defaults[k]) != new[k]]
     if diff:
         k = diff[0]
         raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
                         f"{new[k]!r}; run with the same options, or use --overwrite")
+    want = shard_text(shard) if shard else None
+    if meta.get("shard") != want:
+        was = f"--shard {meta['shard']}" if meta.get("shard") else "without --shard"
+        now = f"--shard {want}" if want else "without --shard"
+        raise UserError(f"--resume: {out} was made {was}, not {now}; resume it as it was "
+                        f"made, or use --overwrite")
     journal = out / "records.jsonl"
     if not journal.exists():
         return set()
@@ -247,23 +293,28 @@ def _resumable(config: GeneratorConfig, out: Path) -> set[int]:
     done = set()
     for i, _ in offsets.items():
         name = image_name(i, config.image_format)
-        if (out / "images" / name).exists() and (out / "masks" / image_name(i, "png")).exists():
+        if (out / "images" / name).exists() and (out / "masks" / image_name(i, "png")).exists() \
+                and all((out / d / image_name(i, "txt")).exists() for d in _yolo_dirs(config)):
             done.add(i)
-    return {i for i in done if i < config.n}
+    indices = run_indices(config, shard)
+    return {i for i in done if i in indices}
 
 
-def write_annotations(config: GeneratorConfig, out: Path, status: str) -> dict:
-    """COCO files of both splits and dataset.json from the journal; returns the counts."""
+def write_annotations(config: GeneratorConfig, out: Path, status: str,
+                      shard: tuple[int, int] | None = None) -> dict:
+    """COCO files of both splits and dataset.json from the journal (the images of
+    ``shard`` only, when given); returns the counts."""
     journal = out / "records.jsonl"
     offsets = read_journal(journal) if journal.exists() else {}
-    offsets = {i: o for i, o in offsets.items() if i < config.n}
+    indices = run_indices(config, shard)
+    offsets = {i: o for i, o in offsets.items() if i in indices}
     if not journal.exists():
         journal.touch()
     info = {"description": "sdcomp synthetic drone-over-water dataset",
             "version": __version__, "seed": config.seed, "url": "", "contributor": "sdcomp",
             "year": 0, "date_created": ""}
     counts = {"images": len(offsets), "annotations": 0}
-    for split in ("train", "val"):
+    for split in ("train", "val") if "coco" in config.format else ():
         c = write_coco(out / "annotations" / f"instances_{split}.json", journal, offsets,
                        split, config.categories, info)
         counts[split] = c["images"]
@@ -272,14 +323,28 @@ def write_annotations(config: GeneratorConfig, out: Path, status: str) -> dict:
     for rec in iter_records(journal, offsets):
         dropped += int(rec["image"]["meta"].get("objects_dropped", 0))
         empty += not rec["annotations"]
+        if "coco" not in config.format:  # the counts that write_coco gives otherwise
+            counts[rec["split"]] = counts.get(rec["split"], 0) + 1
+            counts["annotations"] += len(rec["annotations"])
+    counts.setdefault("train", 0)
+    counts.setdefault("val", 0)
     counts["objects_dropped"] = dropped
     counts["empty_images"] = empty
+    if "yolo" in config.format:
+        yolo.write_lists(out, iter_records(journal, offsets), config.categories, __version__,
+                         config.yolo_seg)
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "sdcomp_version": __version__,
             "seed": config.seed, "status": status, "counts": counts,
             "layout": {"images": "images/", "masks": "masks/ (16-bit PNG instance ids)",
                        "train": "annotations/instances_train.json",
                        "val": "annotations/instances_val.json", "journal": "records.jsonl"},
             "mask_rule": MASK_RULE, "config": config.to_dict()}
+    if "yolo" in config.format:
+        meta["layout"].update(yolo.LAYOUT)
+    if "coco" not in config.format:
+        del meta["layout"]["train"], meta["layout"]["val"]
+    if shard is not None:
+        meta["shard"] = shard_text(shard)
     atomic_write_bytes(out / "dataset.json",
                        (json.dumps(meta, indent=1, sort_keys=False) + "\n").encode())
     return counts
@@ -302,34 +367,77 @@ def run(config: GeneratorConfig, options: RunOptions, gen: Generator | None = No
 
     Ctrl-C (KeyboardInterrupt) or an error stops the run after writing valid COCO files and
     dataset.json for the images finished so far, then re-raises.
+    A file-system error (disk full, no permission) becomes a one-line UserError naming the
+    file and how many images are kept; a worker that dies, :class:`sdcomp.pool.WorkerDied`.
+    Neither leaves a partial file under a final name, and ``--resume`` continues the run.
     """
-    if gen is None:  # first: a bad mesh or backgrounds folder must not leave files behind
-        gen = Generator(config, options.sprites_dir, progress=options.progress)
-    done = prepare_output(config, options)
+    try:
+        if gen is None:  # first: a bad mesh or backgrounds folder must not leave files behind
+            gen = Generator(config, options.sprites_dir, progress=options.progress)
+        done = prepare_output(config, options)
+        return _run(config, options, gen, done)
+    except OSError as e:
+        raise UserError(os_error_message(e, options.out)) from None
+
+
+def os_error_message(e: OSError, out: Path, kept: str = "") -> str:
+    """One line for a file-system error: the file, the reason, what is kept, the fix."""
+    where = e.filename if e.filename is not None else out
+    why = e.strerror or str(e) or type(e).__name__
+    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        fix = "free some disk space"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        fix = f"make {out} writable"
+    else:
+        fix = "fix the cause"
+    return f"{where}: {why}; {kept}{fix}, then continue with the same command and --resume"
+
+
+def _run(config: GeneratorConfig, options: RunOptions, gen: Generator, done: set[int]) -> dict:
     out = options.out
-    pending = [i for i in range(config.n) if i not in done]
-    write_annotations(config, out, "running")
+    indices = run_indices(config, options.shard)
+    pending = [i for i in indices if i not in done]
+    write_annotations(config, out, "running", options.shard)
     chunks = [pending[k:k + CHUNK] for k in range(0, len(pending), CHUNK)]
     progress = Progress(len(pending), "generate", options.progress, unit="img")
     last = time.monotonic()
     status = "interrupted"
     old_term = _on_sigterm()
+    failure: OSError | None = None
     try:
-        with Journal(out / "records.jsonl") as journal:
-            for records in _results(gen, chunks, options):
+        with Journal(out / "records.jsonl") as journal, \
+                closing(_results(gen, chunks, options)) as results:
+            for records in results:
                 journal.append(records)
                 progress.update(len(records))
                 if time.monotonic() - last > CHECKPOINT_SECONDS:
-                    write_annotations(config, out, "running")
+                    write_annotations(config, out, "running", options.shard)
                     last = time.monotonic()
         status = "complete"
+    except OSError as e:
+        status, failure = "failed", e
+    except Exception:
+        status = "failed"
+        raise
     finally:
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
         progress.close()
-        counts = write_annotations(config, out, status)
-        if status != "complete":
-            print(f"stopped after {counts['images']} of {config.n} images; the annotation "
+        _sweep_tmp(out, config)
+        try:  # SIGTERM still raises KeyboardInterrupt here: no write is cut off by SIG_DFL
+            counts = write_annotations(config, out, status, options.shard)
+        except OSError as e:
+            if status == "complete":
+                raise
+            failure = failure or e  # the files of the last checkpoint stay, whole
+            counts = None
+        finally:
+            if old_term is not None:
+                signal.signal(signal.SIGTERM, old_term)
+        if status == "interrupted" and counts is not None:
+            print(f"stopped after {counts['images']} of {len(indices)} images; the annotation "
                   f"files cover them. Continue with the same command and --resume.",
                   file=sys.stderr)
+    if failure is not None:
+        kept = (f"{counts['images']} of {len(indices)} images are saved; "
+                if counts is not None else "the images finished so far are kept; ")
+        raise UserError(os_error_message(failure, out, kept))
     return counts

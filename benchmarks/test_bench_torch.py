@@ -1,0 +1,52 @@
+"""On-the-fly training data: ``SyntheticDetection`` through a 2-worker DataLoader at 416x416
+(pytest-benchmark; the figure goes to ``extra_info``).
+
+Target from the integration issue: >= 1000 images/s on the 2-core development machine, so
+that a detector never waits for data. The assert is a sanity floor far below the target (a
+loaded CI machine must not fail); the measured rate is printed and stored.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from sdcomp.config import GeneratorConfig  # noqa: E402
+from sdcomp.generator import Generator  # noqa: E402
+from sdcomp.torch import SyntheticDetection, collate  # noqa: E402
+
+TARGET = 1000.0
+BATCH = 16
+WARM_BATCHES = 4  # worker start-up (each builds its generator) is not throughput
+
+
+def test_bench_dataloader_416_two_workers(benchmark, sprites_dir):
+    """Default config (416x416, 1-3 BlueROV2s, clutter), float CHW images and targets with
+    masks, batches of 16, 2 worker processes, read by the main process."""
+    config = GeneratorConfig(seed=1)
+    Generator(config, sprites_dir, progress=False)  # atlases built before the workers start
+    batches = 40
+    dataset = SyntheticDetection(config, (batches + WARM_BATCHES) * BATCH * 4,
+                                 sprites_dir=sprites_dir)
+    loader = torch.utils.data.DataLoader(dataset, batch_size=BATCH, num_workers=2,
+                                         collate_fn=collate, persistent_workers=True,
+                                         prefetch_factor=4, timeout=300)
+    it = iter(loader)
+    for _ in range(WARM_BATCHES):
+        next(it)
+
+    def take():
+        n = 0
+        for _ in range(batches):
+            images, _targets = next(it)
+            n += len(images)
+        return n
+
+    n = benchmark.pedantic(take, rounds=3, iterations=1)
+    rate = n / benchmark.stats.stats.mean
+    benchmark.extra_info.update(images=n, images_per_s=round(rate, 1),
+                                target_images_per_s=TARGET)
+    print(f"\nSyntheticDetection, 2-worker DataLoader, 416x416: {rate:.0f} images/s "
+          f"(target {TARGET:.0f})")
+    assert rate > 20

@@ -1,0 +1,89 @@
+"""The ``sdcomp`` command: one entry point with a subcommand per job.
+
+    sdcomp atlas build|info ...   sprite atlases         (= python -m sdcomp.atlas)
+    sdcomp generate ...           a dataset folder       (= python -m sdcomp.generate)
+    sdcomp show DIR ...           a contact sheet        (= python -m sdcomp.show)
+    sdcomp stats DIR ...          dataset statistics     (= python -m sdcomp.stats)
+    sdcomp bench ...              detector benchmarks    (sdcomp.bench.cli)
+
+``sdcomp COMMAND --help`` lists the command's options with their defaults and units. A
+command is a ``main(argv) -> int`` function of a module, imported only when it runs (so
+``sdcomp show`` does not import torch); add one by adding a line to :data:`COMMANDS`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+
+from . import __version__
+from .errors import UserError, run_cli
+
+#: command: (module, function, one-line description)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "atlas": ("sdcomp.atlas", "main", "build or inspect a mesh's sprite atlas (atlas build, "
+                                      "atlas info)"),
+    "generate": ("sdcomp.generate", "main", "generate a dataset: images, masks, COCO and/or "
+                                            "YOLO labels"),
+    "show": ("sdcomp.show", "main", "draw a contact sheet of a generated dataset"),
+    "stats": ("sdcomp.stats", "main", "counts, object sizes and metadata histograms of a "
+                                      "generated dataset"),
+    "bench": ("sdcomp.bench.cli", "main", "train and evaluate detectors on generated data "
+                                          "(needs torch)"),
+}
+#: modules that may be missing from an installation, and what to do about it
+OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench package; "
+                                "install a version of sdcomp that includes it"}
+
+
+def usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = ["usage: sdcomp COMMAND [OPTIONS]   (sdcomp COMMAND --help for its options)", "",
+             "Synthetic drone-over-water detection datasets with exact masks.", "",
+             "commands:"]
+    lines += [f"  {name.ljust(width)}  {desc}" for name, (_, _, desc) in COMMANDS.items()]
+    lines += ["", "options:", "  -h, --help  show this help and exit",
+              "  --version   print the sdcomp version and exit"]
+    return "\n".join(lines) + "\n"
+
+
+def command(name: str) -> Callable[[Sequence[str] | None], int | None]:
+    """The ``main(argv)`` of command ``name`` (imported now); UserError when it is unknown
+    or its module is not installed."""
+    if name not in COMMANDS:
+        near = difflib.get_close_matches(name, list(COMMANDS), n=1)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        raise UserError(f"unknown command {name!r}; {hint}use one of {', '.join(COMMANDS)}")
+    module, func, _ = COMMANDS[name]
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        parts = module.split(".")
+        own = {".".join(parts[:k]) for k in range(2, len(parts) + 1)}
+        if e.name in own and module in OPTIONAL:  # the module itself, not one it imports
+            raise UserError(f"`sdcomp {name}`: {OPTIONAL[module]}") from None
+        raise
+    return getattr(mod, func)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``sdcomp COMMAND ...``: run the command's ``main`` on the rest of the arguments."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        sys.stdout.write(usage())
+        return 0 if args else 2
+    if args[0] == "--version":
+        print(f"sdcomp {__version__}")
+        return 0
+    return int(command(args[0])(args[1:]) or 0)
+
+
+def run() -> None:
+    """Console-script entry point (``sdcomp`` in setup.cfg): exit with main's status."""
+    sys.exit(run_cli(main))
+
+
+if __name__ == "__main__":
+    run()

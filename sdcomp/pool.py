@@ -1,0 +1,225 @@
+"""A process pool that notices dead workers: ordered results, one task per worker at a time.
+
+:func:`imap_ordered` runs ``func(task)`` for every task in worker processes and yields the
+results in task order. Unlike :class:`multiprocessing.pool.Pool`, which waits forever for the
+result of a worker that was killed (out of memory, a segfault in native code, ``kill -9``),
+it watches every worker's process sentinel next to its result pipe: a worker that ends without
+answering stops the run with :class:`WorkerDied`, which names the item (the image index) the
+worker was busy with. Workers record that item in shared memory with :func:`note`, so it is
+known even when the worker dies without a word.
+
+Workers are forked where the platform can (they inherit the caller's loaded state: textures,
+sprite atlases), with SIGINT and SIGTERM blocked while forking; in a worker SIGINT is ignored
+(the parent handles Ctrl-C and stops the workers) and SIGTERM ends it. A worker whose parent
+has gone (the parent was killed with SIGKILL) stops at its next :func:`note`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import pickle
+import signal
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from multiprocessing.connection import wait
+from typing import Any
+
+import cv2
+
+from .errors import UserError
+
+STOP_SECONDS = 5.0  # how long stopped workers get to end after SIGTERM before SIGKILL
+_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+# in a worker: (slot, shared array of current items, parent pid)
+_SELF: dict[str, Any] = {}
+
+
+class WorkerDied(UserError):
+    """A worker process ended (killed, crashed, exited) before finishing its task.
+
+    Attributes: ``item`` (the item it was busy with, or None), ``pid``, ``exitcode``
+    (negative: killed by that signal).
+    """
+
+    def __init__(self, message: str, item: int | None, pid: int, exitcode: int | None):
+        super().__init__(message)
+        self.item, self.pid, self.exitcode = item, pid, exitcode
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.item, self.pid, self.exitcode)
+
+
+def note(item: int) -> None:
+    """In a worker: record that it now works on ``item`` (an int >= 0, e.g. an image index),
+    which :class:`WorkerDied` reports should the worker die. Ends a worker whose parent is
+    gone. A no-op outside a pool worker."""
+    if not _SELF:
+        return
+    if os.getppid() != _SELF["parent"]:
+        os._exit(1)  # orphaned: nobody reads our results
+    _SELF["current"][_SELF["slot"]] = item
+
+
+def _serve(slot: int, conn, current, parent: int, func: Callable, initializer, initargs) -> None:
+    """A worker's main loop: receive (task number, task), answer ("ok"|"error", number, x)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
+    _SELF.update(slot=slot, current=current, parent=parent)
+    current[slot] = -1
+    if initializer is not None:
+        initializer(*initargs)
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            return  # the parent is gone
+        if msg is None:
+            return
+        number, task = msg
+        try:
+            reply = ("ok", number, func(task))
+        except Exception as exc:  # sent to the parent, which raises it
+            reply = ("error", number, _portable(exc))
+        current[slot] = -1
+        try:
+            conn.send(reply)
+        except (BrokenPipeError, OSError):
+            return
+
+
+def _portable(exc: Exception) -> Exception:
+    """``exc`` if it pickles, with the worker's traceback as a note, else a RuntimeError."""
+    text = "".join(traceback.format_exception(exc)).rstrip()
+    try:
+        pickle.loads(pickle.dumps(exc))
+    except Exception:
+        exc = RuntimeError(f"{type(exc).__name__}: {exc}")
+    if not isinstance(exc, (UserError, OSError)):
+        exc.add_note(f"in the worker process:\n{text}")
+    return exc
+
+
+def _how(exitcode: int | None) -> str:
+    if exitcode is None:
+        return "still running, no longer answering"
+    if exitcode < 0:
+        try:
+            return f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exit status {exitcode}"
+
+
+def imap_ordered(func: Callable[[Any], Any], tasks: Sequence, workers: int, *,
+                 initializer: Callable | None = None, initargs: tuple = (),
+                 what: str = "item", lookahead: int = 2) -> Iterator:
+    """Yield ``func(task)`` for each of ``tasks``, in order, computed by ``workers`` processes.
+
+    ``func``, ``initializer`` and their arguments must be picklable where fork is not
+    available. At most ``lookahead * workers`` results wait for an earlier one. An exception
+    raised by ``func`` is raised here (with the worker's traceback as a note); a worker that
+    dies raises :class:`WorkerDied` naming the ``what`` it was busy with (see :func:`note`).
+    Leaving the iteration early (an exception, Ctrl-C, ``close()``) stops the workers:
+    SIGTERM, then SIGKILL after :data:`STOP_SECONDS`.
+    """
+    if not tasks:
+        return
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    workers = max(1, min(int(workers), len(tasks)))
+    current = ctx.RawArray("q", workers)
+    procs, conns = [], []
+    # OpenCV's thread pool does not survive fork (children deadlock in their first parallel
+    # call): stop it while forking; and keep Ctrl-C away from half-started workers
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    try:
+        for slot in range(workers):
+            mine, theirs = ctx.Pipe()
+            p = ctx.Process(target=_serve, daemon=True, name=f"sdcomp-worker-{slot}",
+                            args=(slot, theirs, current, os.getpid(), func, initializer,
+                                  initargs))
+            p.start()
+            theirs.close()
+            procs.append(p)
+            conns.append(mine)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+        cv2.setNumThreads(threads)
+    clean = False
+    try:
+        busy: dict[int, int] = {}  # slot: task number
+        results: dict[int, Any] = {}
+        sent = done = 0
+        while done < len(tasks):
+            for slot in range(workers):
+                if slot not in busy and sent < len(tasks) and sent < done + lookahead * workers:
+                    try:
+                        conns[slot].send((sent, tasks[sent]))
+                    except OSError:  # its end of the pipe is closed: it died
+                        _died(procs[slot], int(current[slot]), what)
+                    busy[slot] = sent
+                    sent += 1
+            watch = {}
+            for slot in busy:
+                watch[conns[slot]] = slot
+                watch[procs[slot].sentinel] = slot
+            for obj in wait(list(watch)):
+                slot = watch[obj]
+                if slot not in busy:
+                    continue  # its pipe and its sentinel were both ready
+                reply = None
+                if conns[slot].poll():
+                    try:
+                        reply = conns[slot].recv()
+                    except (EOFError, OSError):
+                        reply = None
+                if reply is None:
+                    if procs[slot].is_alive() and obj is not procs[slot].sentinel:
+                        procs[slot].join(STOP_SECONDS)  # pipe closed: it is ending
+                    _died(procs[slot], int(current[slot]), what)
+                kind, number, value = reply
+                if kind == "error":
+                    raise value
+                results[number] = value
+                del busy[slot]
+            while done in results:
+                yield results.pop(done)
+                done += 1
+        clean = True
+    finally:
+        _stop(procs, conns, clean)
+
+
+def _died(proc, item: int, what: str) -> None:
+    proc.join(1.0)
+    on = f"while on {what} {item}" if item >= 0 else "before its first " + what
+    retry = (f"; if {what} {item} kills a worker again, run with --workers 1 to see the error"
+             if item >= 0 else "")
+    raise WorkerDied(f"worker process {proc.pid} died ({_how(proc.exitcode)}) {on}; the "
+                     f"run stopped, keeping what was finished: continue it with --resume"
+                     f"{retry}", item if item >= 0 else None, proc.pid, proc.exitcode)
+
+
+def _stop(procs: list, conns: list, clean: bool) -> None:
+    """End the workers: ask politely after a clean run, else SIGTERM; SIGKILL stragglers."""
+    for conn in conns:
+        if clean:
+            try:
+                conn.send(None)
+            except OSError:
+                pass
+        conn.close()
+    if not clean:
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+    for p in procs:
+        p.join(STOP_SECONDS)
+        if p.is_alive():
+            p.kill()
+            p.join()
+        p.close()

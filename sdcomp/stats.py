@@ -1,0 +1,321 @@
+"""Statistics of a generated dataset: a table on stdout and a PNG figure.
+
+Reads the folder that ``sdcomp generate`` wrote (the COCO files, or the run's journal
+``records.jsonl`` when the run wrote YOLO labels only) and reports:
+
+- images, images with no objects and objects per category, per split;
+- object sizes in pixels (COCO ``area``, the mask's pixel count) against the COCO bounds:
+  small < 32^2, medium 32^2 to 96^2, large >= 96^2 pixels;
+- histograms of the per-image metadata: altitude (m), gimbal pitch (degrees below the
+  horizon), turbidity (0-1) and water colour.
+
+Command line::
+
+    sdcomp stats DIR [--out DIR/stats.png] [--bins 10]
+
+Python::
+
+    from sdcomp.stats import dataset_stats, format_table, plot_stats
+    s = dataset_stats("dataset/")          # plain dict (JSON-able)
+    print(format_table(s)); plot_stats(s, "stats.png")
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import math
+import sys
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .coco import iter_records, read_journal
+from .errors import UserError, run_cli
+from .fileio import atomic_write_bytes
+from .log import add_verbosity_flags, setup_logging
+
+SPLITS = ("train", "val")
+#: COCO size classes by area in pixels: small < 32^2 <= medium < 96^2 <= large
+SIZE_BOUNDS = (32 ** 2, 96 ** 2)
+SIZE_NAMES = ("small", "medium", "large")
+#: (metadata key, label, unit) of the numeric histograms
+META_HISTOGRAMS = (("height_above_takeoff(meter)", "altitude", "m"),
+                   ("gimbal_pitch(degrees)", "pitch", "degrees"),
+                   ("turbidity", "turbidity", "0-1"))
+WATER_KEY = "water_color"
+
+
+def _entries(folder: Path) -> tuple[list[tuple[str, dict, list]], dict[int, str]]:
+    """(split, image, annotations) of every image, and the category names by id."""
+    ann_dir = folder / "annotations"
+    if any((ann_dir / f"instances_{s}.json").is_file() for s in SPLITS):
+        from .show import load_dataset  # the checked COCO reader
+
+        ds = load_dataset(folder, "all")
+        return [(e.split, e.image, e.annotations) for e in ds.entries], dict(ds.categories)
+    journal = folder / "records.jsonl"
+    if not folder.is_dir() or not journal.is_file():
+        raise UserError(f"{str(folder)!r} is not a generated dataset (no COCO files, no "
+                        f"records.jsonl): give the --out folder of `sdcomp generate`")
+    offsets = read_journal(journal)
+    out = [(r["split"], r["image"], r["annotations"]) for r in iter_records(journal, offsets)]
+    names = _journal_categories(folder)
+    return out, names
+
+
+def _journal_categories(folder: Path) -> dict[int, str]:
+    import json
+
+    try:
+        config = json.loads((folder / "dataset.json").read_text())["config"]
+        return {i + 1: o["category"] for i, o in enumerate(config["objects"])}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def _histogram(values: Sequence[float], bins: int) -> dict:
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], np.float64)
+    if v.size == 0:
+        return {"n": 0, "min": None, "max": None, "mean": None, "edges": [], "counts": []}
+    lo, hi = float(v.min()), float(v.max())
+    if hi == lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    counts, edges = np.histogram(v, bins=bins, range=(lo, hi))
+    return {"n": int(v.size), "min": float(v.min()), "max": float(v.max()),
+            "mean": float(v.mean()), "edges": [float(e) for e in edges],
+            "counts": [int(c) for c in counts]}
+
+
+def size_class(area: float) -> str:
+    """``"small"``, ``"medium"`` or ``"large"`` of an area in pixels (COCO's bounds)."""
+    return SIZE_NAMES[int(np.searchsorted(SIZE_BOUNDS, area, side="right"))]
+
+
+def dataset_stats(folder: str | Path, bins: int = 10) -> dict:
+    """The statistics of the dataset in ``folder`` as a JSON-able dict::
+
+        {"folder", "categories": {id: name},
+         "splits": {split: {"images", "empty_images", "objects": {name: n}}},
+         "sizes": {name: {"small", "medium", "large", "sqrt_area_px": [...]}},
+         "meta": {label: histogram}, "water": {colour: images}}
+
+    where a histogram is ``{"n", "min", "max", "mean", "edges", "counts"}`` (``bins`` bins).
+    """
+    if isinstance(bins, bool) or not isinstance(bins, int) or not 1 <= bins <= 1000:
+        raise UserError(f"--bins {bins!r} is out of range: use 1 to 1000")
+    folder = Path(folder)
+    entries, names = _entries(folder)
+    if not entries:
+        raise UserError(f"{str(folder)!r} has no images yet: finish the run with "
+                        f"`sdcomp generate ... --resume`")
+    cat_name = {**names}
+    splits: dict[str, dict] = {}
+    sizes: dict[str, dict] = {}
+    roots: list[float] = []
+    meta_values: dict[str, list[float]] = {label: [] for _, label, _ in META_HISTOGRAMS}
+    water: dict[str, int] = {}
+    for split, image, anns in entries:
+        s = splits.setdefault(split, {"images": 0, "empty_images": 0, "objects": {}})
+        s["images"] += 1
+        s["empty_images"] += not anns
+        for a in anns:
+            name = cat_name.setdefault(int(a["category_id"]), str(a["category_id"]))
+            s["objects"][name] = s["objects"].get(name, 0) + 1
+            area = float(a["area"])
+            z = sizes.setdefault(name, {"small": 0, "medium": 0, "large": 0})
+            z[size_class(area)] += 1
+            roots.append(math.sqrt(area))
+        meta = image.get("meta") or {}
+        for key, label, _ in META_HISTOGRAMS:
+            v = meta.get(key)
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                meta_values[label].append(float(v))
+        colour = meta.get(WATER_KEY)
+        if colour is not None:
+            water[str(colour)] = water.get(str(colour), 0) + 1
+    for name in sizes:
+        sizes[name] = dict(sizes[name])
+    return {
+        "folder": str(folder),
+        "categories": {int(k): v for k, v in sorted(cat_name.items())},
+        "splits": {s: splits[s] for s in sorted(splits, key=lambda s: (s not in SPLITS, s))},
+        "sizes": sizes,
+        "object_size": _histogram(roots, bins),
+        "meta": {label: _histogram(meta_values[label], bins) for _, label, _ in
+                 META_HISTOGRAMS},
+        "water": dict(sorted(water.items(), key=lambda kv: -kv[1])),
+    }
+
+
+# --------------------------------------------------------------------------- table
+
+def _row(cells: Iterable, widths: Sequence[int]) -> str:
+    cells = list(cells)
+    return "  ".join([str(cells[0]).ljust(widths[0])] +
+                     [str(c).rjust(w) for c, w in zip(cells[1:], widths[1:], strict=True)])
+
+
+def _hist_line(h: dict, unit: str) -> str:
+    if not h["n"]:
+        return "no values"
+    bars = " ".join(f"{lo:g}-{hi:g}:{c}" for lo, hi, c in
+                    zip(_round(h["edges"][:-1]), _round(h["edges"][1:]), h["counts"],
+                        strict=True) if c)  # empty bins left out
+    return (f"min {h['min']:.4g}, mean {h['mean']:.4g}, max {h['max']:.4g} {unit}; "
+            f"{bars}")
+
+
+def _round(xs: Sequence[float]) -> list[float]:
+    return [float(f"{x:.3g}") for x in xs]
+
+
+def format_table(stats: dict) -> str:
+    """The statistics as plain-text tables (what ``sdcomp stats`` prints)."""
+    splits = stats["splits"]
+    cols = [*splits, "all"]
+    names = list(stats["categories"].values())
+    rows = [["images", *(splits[s]["images"] for s in splits),
+             sum(s["images"] for s in splits.values())],
+            ["images with no objects", *(splits[s]["empty_images"] for s in splits),
+             sum(s["empty_images"] for s in splits.values())]]
+    for name in names:
+        per = [splits[s]["objects"].get(name, 0) for s in splits]
+        rows.append([f"objects: {name}", *per, sum(per)])
+    widths = [max(len(str(r[0])) for r in [["counts"], *rows])] + [
+        max(len(str(c)), *(len(str(r[i + 1])) for r in rows)) for i, c in enumerate(cols)]
+    out = [f"dataset {stats['folder']}", "", _row(["counts", *cols], widths)]
+    out += [_row(r, widths) for r in rows]
+    lo, hi = SIZE_BOUNDS
+    head = ["object size (COCO area, px)", f"small <{lo}", f"medium {lo}-{hi}",
+            f"large >={hi}"]
+    srows = [[name, *(stats["sizes"].get(name, {}).get(k, 0) for k in SIZE_NAMES)]
+             for name in names]
+    widths = [max(len(str(r[0])) for r in [head, *srows])] + [
+        max(len(head[i]), *(len(str(r[i])) for r in srows)) for i in range(1, 4)]
+    out += ["", _row(head, widths)] + [_row(r, widths) for r in srows]
+    out += ["", "object size sqrt(area): " + _hist_line(stats["object_size"], "px")]
+    for _, label, unit in META_HISTOGRAMS:
+        out.append(f"{label}: " + _hist_line(stats["meta"][label], unit))
+    total = sum(stats["water"].values()) or 1
+    out.append("water colour: " + ", ".join(f"{k} {v} ({100 * v / total:.0f}%)"
+                                            for k, v in stats["water"].items()))
+    return "\n".join(out) + "\n"
+
+
+# --------------------------------------------------------------------------- figure
+
+def _water_rgb(name: str) -> tuple[float, float, float]:
+    """Bar colour of a water colour name or "R,G,B" (grey when it is neither)."""
+    from .water import parse_water
+
+    try:
+        rgb = parse_water(name)[1]
+    except UserError:
+        return (0.5, 0.5, 0.5)
+    return (rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0)
+
+
+def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> bytes:
+    """Draw the statistics (2 x 3 panels) as PNG bytes; also written to ``path`` (atomically)
+    when given. Uses matplotlib's Agg canvas, not pyplot (no global backend change)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(13.5, 7.5), dpi=dpi)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 3)
+    fig.suptitle(f"sdcomp dataset {Path(stats['folder']).name}: "
+                 f"{sum(s['images'] for s in stats['splits'].values())} images")
+    # counts per category and split
+    ax = axes[0, 0]
+    splits = list(stats["splits"])
+    labels = [*stats["categories"].values(), "no objects"]
+    x = np.arange(len(labels))
+    width = 0.8 / max(len(splits), 1)
+    for k, s in enumerate(splits):
+        d = stats["splits"][s]
+        vals = [d["objects"].get(n, 0) for n in labels[:-1]] + [d["empty_images"]]
+        ax.bar(x + (k - (len(splits) - 1) / 2) * width, vals, width, label=s)
+    ax.set_xticks(x, labels, rotation=20, ha="right")
+    ax.set_title("objects per category; images with no objects")
+    ax.set_ylabel("count")
+    ax.legend()
+    # object sizes against the COCO bounds
+    ax = axes[0, 1]
+    h = stats["object_size"]
+    if h["n"]:
+        ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
+    for b, n in zip((math.sqrt(b) for b in SIZE_BOUNDS), ("32", "96"), strict=True):
+        ax.axvline(b, color="k", ls="--", lw=1)
+        ax.text(b, ax.get_ylim()[1] * 0.95, f" {n}", va="top")
+    sums = {k: sum(v.get(k, 0) for v in stats["sizes"].values()) for k in SIZE_NAMES}
+    ax.set_title("object size: " + ", ".join(f"{k} {v}" for k, v in sums.items()))
+    ax.set_xlabel("sqrt(mask area), pixels (COCO bounds 32, 96)")
+    ax.set_ylabel("objects")
+    # metadata histograms
+    for ax, (_, label, unit) in zip((axes[0, 2], axes[1, 0], axes[1, 1]), META_HISTOGRAMS,
+                                    strict=True):
+        h = stats["meta"][label]
+        if h["n"]:
+            ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
+        ax.set_title(label)
+        ax.set_xlabel(f"{label}, {unit}")
+        ax.set_ylabel("images")
+    ax = axes[1, 2]
+    names = list(stats["water"])
+    ax.bar(names, [stats["water"][n] for n in names],
+           color=[_water_rgb(n) for n in names], edgecolor="k")
+    ax.set_title("water colour")
+    ax.set_ylabel("images")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    data = buf.getvalue()
+    if path is not None:
+        atomic_write_bytes(path, data)
+    return data
+
+
+# --------------------------------------------------------------------------- command line
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="sdcomp stats",
+        description="Statistics of a generated dataset: counts per category and split, "
+                    "object sizes against the COCO small/medium/large bounds, altitude, "
+                    "pitch, turbidity and water colour histograms, images with no objects. "
+                    "Printed as tables and drawn as a PNG figure.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("folder", metavar="DIR", help="dataset folder (the generator's --out)")
+    p.add_argument("--out", default=None, metavar="PNG",
+                   help="figure file (default: DIR/stats.png; '-' for none)")
+    p.add_argument("--bins", type=int, default=10, metavar="N",
+                   help="histogram bins")
+    add_verbosity_flags(p)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    log = setup_logging(args.quiet, args.verbose)
+    stats = dataset_stats(args.folder, args.bins)
+    out = None if args.out == "-" else Path(args.out) if args.out else \
+        Path(args.folder) / "stats.png"
+    if out is not None:
+        if out.suffix.lower() != ".png":
+            raise UserError(f"--out {str(out)!r} must end in .png: the figure is written as "
+                            f"PNG (or give --out - for none)")
+        if not out.parent.is_dir():
+            raise UserError(f"--out {str(out)!r}: folder {str(out.parent)!r} does not exist: "
+                            f"create it first or choose another path")
+    log.info(format_table(stats).rstrip("\n"))
+    if out is not None:
+        plot_stats(stats, out)
+        log.info(f"figure: {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

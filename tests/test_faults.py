@@ -1,0 +1,339 @@
+"""Faults injected into generator runs: kill signals at random moments, a full disk, no
+permission, a journal write cut short, a worker process that dies. After each: nothing
+corrupt (:func:`tests.datasets.check_intact`), a one-line error where the run reports one,
+and ``--resume`` finishes a dataset byte-identical to an uninterrupted run.
+
+The CI runs a few kill trials; ``pytest -m slow tests/test_faults.py`` runs the campaign
+(>= 24 trials of every signal) and prints its figures.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from sdcomp import coco, writer
+from sdcomp.coco import Journal, read_journal
+
+from .datasets import CLI, assert_identical, check_intact, cli, finish, one_line_error, popen
+
+pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
+
+# small frames, many images: a kill lands in the middle of a run of 2 workers
+BASE = ["--n", "120", "--size", "48", "--clutter", "0", "--altitude", "3-6", "--count", "0-2",
+        "--seed", "11"]
+
+
+def gen(out: Path, sprites: Path, *extra, workers: int = 2) -> tuple[int, str, str]:
+    return cli([*BASE, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
+                "--no-progress"])
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory, sprites_dir) -> Path:
+    """BASE, one worker, uninterrupted."""
+    out = tmp_path_factory.mktemp("faults") / "reference"
+    rc, _, err = gen(out, sprites_dir, workers=1)
+    assert rc == 0, err
+    return out
+
+
+def resume_and_compare(out: Path, sprites: Path, reference: Path) -> None:
+    rc, _, err = gen(out, sprites, "--resume")
+    assert rc == 0, err
+    check_intact(out)
+    assert json.loads((out / "dataset.json").read_text())["status"] == "complete"
+    assert_identical(reference, out)
+
+
+# --------------------------------------------------------------------------- kill signals
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
+
+
+def kill_trial(out: Path, sprites: Path, sig: int, delay: float, group: bool) -> dict:
+    """Start a 2-worker run, send ``sig`` after ``delay`` s to its main process (or its whole
+    process group, as a terminal's Ctrl-C or the OOM killer would), check what is left.
+    Returns {"fault": whether the run was still going when the signal came, "rc": ...}."""
+    proc = popen(CLI, [*BASE, "--out", out, "--sprites", sprites, "--workers", 2,
+                       "--no-progress"])
+    time.sleep(delay)
+    fault = proc.poll() is None
+    if fault:
+        try:
+            (os.killpg if group else os.kill)(proc.pid, sig)
+        except ProcessLookupError:
+            fault = False
+    rc, _, err = finish(proc, timeout=60)
+    if sig == signal.SIGKILL and not group:
+        time.sleep(0.5)  # orphaned workers notice at their next image and stop
+    if fault and (out / "dataset.json").exists() and sig != signal.SIGKILL:
+        # the run had begun (a signal during Python's start-up may show a traceback): it
+        # stopped cleanly, an "interrupted" dataset, no temporary files, no traceback
+        assert "Traceback" not in err, err
+        if rc == 130:
+            status = json.loads((out / "dataset.json").read_text())["status"]
+            assert status == "interrupted", status
+    check_intact(out, allow_tmp=sig == signal.SIGKILL or not fault)
+    return {"fault": fault, "rc": rc}
+
+
+def campaign(tmp: Path, sprites: Path, reference: Path, trials: int, seed: int) -> dict:
+    """``trials`` kill trials (signals in turn, random delays and targets), each resumed and
+    compared; returns the figures. A trial that breaks anything fails the test at once."""
+    rng = random.Random(seed)
+    stats = {"trials": 0, "faults": 0, "corrupted": 0, "by_signal": {}}
+    for t in range(trials):
+        sig = SIGNALS[t % len(SIGNALS)]
+        out = tmp / f"trial{t}"
+        delay = rng.uniform(0.2, 3.0)
+        group = rng.random() < 0.5
+        try:
+            r = kill_trial(out, sprites, sig, delay, group)
+            resume_and_compare(out, sprites, reference)
+        except AssertionError:
+            stats["corrupted"] += 1
+            print(f"trial {t}: {signal.Signals(sig).name} after {delay:.2f} s "
+                  f"({'group' if group else 'main process'}) broke the dataset")
+            raise
+        stats["trials"] += 1
+        stats["faults"] += r["fault"]
+        name = signal.Signals(sig).name
+        stats["by_signal"][name] = stats["by_signal"].get(name, 0) + r["fault"]
+        shutil.rmtree(out)
+    return stats
+
+
+def test_kill_signals_at_random_moments(tmp_path, sprites_dir, reference):
+    stats = campaign(tmp_path, sprites_dir, reference, trials=3, seed=1)
+    assert stats["corrupted"] == 0
+    assert stats["faults"] >= 1  # at least one signal hit a running run
+
+
+@pytest.mark.slow
+def test_kill_campaign(tmp_path, sprites_dir, reference):
+    stats = campaign(tmp_path, sprites_dir, reference, trials=30, seed=2026)
+    print(f"\nkill campaign: {stats}")
+    assert stats["trials"] == 30 and stats["corrupted"] == 0
+    assert stats["faults"] >= 20
+
+
+def test_sigterm_stops_workers_and_leaves_no_temporary_file(tmp_path, sprites_dir,
+                                                            reference):
+    out = tmp_path / "term"
+    # a run long enough that the signal surely comes while images are being written
+    argv = [*BASE, "--n", "2000", "--out", out, "--sprites", sprites_dir, "--workers", 2,
+            "--no-progress"]
+    proc = popen(CLI, argv)
+    deadline = time.monotonic() + 30
+    while not list((out / "images").glob("*.jpg")) if (out / "images").exists() else True:
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGTERM)
+    rc, _, err = finish(proc, timeout=30)
+    assert rc == 130, err
+    assert "--resume" in err and "Traceback" not in err
+    assert json.loads((out / "dataset.json").read_text())["status"] == "interrupted"
+    check_intact(out)
+    # the workers are gone: nothing of this run changes the folder any more
+    before = files_and_sizes(out)
+    time.sleep(0.5)
+    assert files_and_sizes(out) == before
+
+
+def files_and_sizes(root: Path) -> dict:
+    return {p.as_posix(): p.stat().st_size for p in root.rglob("*") if p.is_file()}
+
+
+# --------------------------------------------------------------------------- a worker dies
+
+DIE = ("import os, signal, sys\n"
+       "from sdcomp import writer\n"
+       "MODE = sys.argv.pop(1)\n"
+       "real = writer.make_record\n"
+       "def fatal(gen, index, out):\n"
+       "    if index == 77:\n"
+       "        if MODE == 'kill':\n"
+       "            os.kill(os.getpid(), signal.SIGKILL)\n"
+       "        os._exit(3)\n"
+       "    return real(gen, index, out)\n"
+       "writer.make_record = fatal\n" + CLI)
+
+
+@pytest.mark.parametrize("how", ["kill", "exit"])
+def test_dead_worker_is_named_with_its_image_and_the_run_stops(how, tmp_path, sprites_dir,
+                                                                reference):
+    out = tmp_path / how
+    proc = popen(DIE, [how, *BASE, "--out", out, "--sprites", sprites_dir, "--workers", 2,
+                       "--no-progress"])
+    rc, _, err = finish(proc, timeout=60)  # multiprocessing.Pool would hang here
+    assert rc == 2, err
+    one_line_error(err)
+    assert "image 77" in err and "died" in err and "--resume" in err
+    assert ("SIGKILL" if how == "kill" else "exit status 3") in err
+    assert json.loads((out / "dataset.json").read_text())["status"] == "failed"
+    listed = check_intact(out)
+    assert 0 < listed < 120
+    resume_and_compare(out, sprites_dir, reference)
+
+
+# --------------------------------------------------------------------------- disk full, permissions
+
+def _fail_writes(monkeypatch, after: int, err: int, match: str = "") -> None:
+    """Image/mask writes whose path contains ``match`` fail with errno ``err`` once
+    ``after`` of them succeeded (in each worker process: they inherit the patch)."""
+    real = writer._write
+    count = [0]
+
+    def flaky(path, data):
+        if match in str(path):
+            if count[0] >= after:
+                tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+                with open(tmp, "wb") as fh:  # a partial temporary file, as a full disk leaves
+                    fh.write(data[: len(data) // 2])
+                raise OSError(err, os.strerror(err), str(tmp))
+            count[0] += 1
+        return real(path, data)
+
+    monkeypatch.setattr(writer, "_write", flaky)
+
+
+@pytest.mark.parametrize("err,workers,match", [(errno.ENOSPC, 2, "images"),
+                                               (errno.EACCES, 1, "masks")])
+def test_write_error_is_one_line_and_resume_completes(err, workers, match, tmp_path,
+                                                      sprites_dir, reference, monkeypatch):
+    out = tmp_path / "full"
+    _fail_writes(monkeypatch, 50, err, match)
+    rc, _, stderr = gen(out, sprites_dir, workers=workers)
+    assert rc == 2, stderr
+    one_line_error(stderr)
+    assert os.strerror(err) in stderr and "--resume" in stderr
+    assert ("free some disk space" if err == errno.ENOSPC else "writable") in stderr
+    assert f"/{match}/" in stderr  # names the file
+    meta = json.loads((out / "dataset.json").read_text())
+    assert meta["status"] == "failed"
+    assert f"{meta['counts']['images']} of 120 images are saved" in stderr
+    check_intact(out)
+    monkeypatch.undo()  # space is back
+    resume_and_compare(out, sprites_dir, reference)
+
+
+def test_real_write_removes_its_temporary_file_on_error(tmp_path, monkeypatch):
+    target = tmp_path / "x.jpg"
+
+    def no_replace(a, b):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(a))
+
+    monkeypatch.setattr(writer.os, "replace", no_replace)
+    with pytest.raises(OSError):
+        writer._write(target, b"data")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_annotation_files_that_cannot_be_written(tmp_path, sprites_dir, reference,
+                                                 monkeypatch):
+    """The final COCO write fails: one line, the last checkpoint's files stay whole."""
+    out = tmp_path / "coco_full"
+    real = writer.write_coco
+    calls = [0]
+
+    def flaky(path, *a, **k):
+        calls[0] += 1
+        if calls[0] > 2:  # the two splits of the first, "running", write succeed
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(writer, "write_coco", flaky)
+    rc, _, stderr = gen(out, sprites_dir)
+    assert rc == 2, stderr
+    one_line_error(stderr)
+    assert "instances_" in stderr and "No space left" in stderr
+    assert json.loads((out / "dataset.json").read_text())["status"] == "running"
+    check_intact(out)
+    monkeypatch.undo()
+    resume_and_compare(out, sprites_dir, reference)
+
+
+class _CutFile:
+    """A file whose writes store half the bytes, then fail like a full disk."""
+
+    def __init__(self, fh):
+        self.fh = fh
+
+    def write(self, data):
+        self.fh.write(data[: len(data) // 2])
+        self.fh.flush()
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def __getattr__(self, name):
+        return getattr(self.fh, name)
+
+
+def test_journal_append_cut_short_leaves_no_half_record(tmp_path):
+    path = tmp_path / "records.jsonl"
+    with Journal(path) as j:
+        j.append([{"index": 0, "x": "a" * 100}])
+        before = path.read_bytes()
+        real = j._file
+        j._file = _CutFile(real)
+        with pytest.raises(OSError):
+            j.append([{"index": 1, "x": "b" * 100}, {"index": 2}])
+        assert path.read_bytes() == before
+        j.append([{"index": 3}])  # space is back: appends go on, on a fresh line
+    assert sorted(read_journal(path)) == [0, 3]
+    assert coco.read_journal(path)  # no damaged line
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 320 kB tmpfs (needs root and mount; skipped elsewhere); yields (folder, regrow)."""
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=320k", "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (needs root): the monkeypatched tests cover it")
+
+    def regrow():
+        subprocess.run(["mount", "-o", "remount,size=64m", str(mnt)], check=True)
+
+    try:
+        yield mnt, regrow
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+def test_real_full_disk(tiny_disk, sprites_dir, reference):
+    mnt, regrow = tiny_disk
+    out = mnt / "dataset"
+    rc, _, err = gen(out, sprites_dir)
+    assert rc == 2, err
+    one_line_error(err)
+    assert "No space left on device" in err and "--resume" in err
+    check_intact(out)
+    regrow()
+    resume_and_compare(out, sprites_dir, reference)
+
+
+def test_resume_after_a_kill_before_dataset_json(tmp_path, sprites_dir, reference):
+    """Killed between creating the folders and writing dataset.json (found by the kill
+    campaign): --resume starts afresh instead of refusing the folder."""
+    out = tmp_path / "early"
+    for sub in ("images", "masks", "annotations"):
+        (out / sub).mkdir(parents=True)
+    (out / "annotations" / ".instances_train.json.x1y2.tmp").write_bytes(b'{"info":')
+    resume_and_compare(out, sprites_dir, reference)
+    # but a folder with someone else's files is still refused
+    other = tmp_path / "other"
+    (other / "images").mkdir(parents=True)
+    (other / "images" / "photo.jpg").write_bytes(b"\xff\xd8\xff")
+    rc, _, err = gen(other, sprites_dir, "--resume")
+    assert rc == 2 and "not an sdcomp dataset" in err

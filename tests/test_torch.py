@@ -1,0 +1,182 @@
+"""sdcomp.torch: on-the-fly and folder datasets in the torchvision detection format,
+determinism, pickling, a 2-worker DataLoader, and a few Faster R-CNN training steps."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import pickle
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from sdcomp.config import GeneratorConfig
+from sdcomp.errors import UserError, run_cli
+from sdcomp.generate import main
+from sdcomp.generator import Generator
+from sdcomp.torch import GeneratedCoco, SyntheticDetection, collate
+
+# 96 px, low altitude: the BlueROV2 is tens of pixels; 0-3 objects, so some images are empty
+CONFIG = GeneratorConfig(width=96, height=96, clutter=0.0, altitude="3-6", count="0-3",
+                         seed=5, image_format="png")
+
+
+@pytest.fixture(scope="module")
+def dataset(sprites_dir) -> SyntheticDetection:
+    Generator(CONFIG, sprites_dir, progress=False)  # atlases built once, before any worker
+    return SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir)
+
+
+def same(a: tuple, b: tuple) -> bool:
+    (ia, ta), (ib, tb) = a, b
+    if not torch.equal(ia, ib) or set(ta) != set(tb):
+        return False
+    return all(torch.equal(ta[k], tb[k]) if torch.is_tensor(ta[k]) else ta[k] == tb[k]
+               for k in ta)
+
+
+def test_item_format_and_agreement_with_generator(dataset, sprites_dir):
+    gen = Generator(CONFIG, sprites_dir, progress=False)
+    n_objects = empty = 0
+    for i in range(12):
+        image, t = dataset[i]
+        s = gen.sample(i)
+        n = len(s.annotations)
+        assert image.shape == (3, 96, 96) and image.dtype == torch.float32
+        assert torch.equal((image * 255).round().to(torch.uint8).permute(1, 2, 0),
+                           torch.from_numpy(s.image))
+        assert 0.0 <= float(image.min()) and float(image.max()) <= 1.0
+        assert t["boxes"].shape == (n, 4) and t["boxes"].dtype == torch.float32
+        assert t["labels"].dtype == torch.int64 and t["labels"].tolist() == [
+            a["category_id"] for a in s.annotations]
+        assert t["masks"].shape == (n, 96, 96) and t["masks"].dtype == torch.uint8
+        assert torch.equal(t["masks"].bool(), torch.from_numpy(s.masks))
+        assert t["image_id"] == i + 1
+        assert t["area"].dtype == torch.float32
+        assert t["area"].tolist() == [float(a["area"]) for a in s.annotations]
+        assert t["iscrowd"].dtype == torch.int64 and t["iscrowd"].tolist() == [0] * n
+        for box, a in zip(t["boxes"].tolist(), s.annotations, strict=True):
+            x, y, w, h = a["bbox"]
+            assert box == [x, y, x + w, y + h]
+        for box, mask in zip(t["boxes"], t["masks"], strict=True):  # boxes = mask extents
+            ys, xs = torch.nonzero(mask, as_tuple=True)
+            assert box.tolist() == [xs.min(), ys.min(), xs.max() + 1, ys.max() + 1]
+        n_objects += n
+        empty += n == 0
+    assert n_objects > 5 and empty > 0
+
+
+def test_deterministic_and_small_when_pickled(dataset, sprites_dir):
+    first = [dataset[i] for i in (3, 7)]
+    assert same(dataset[7], first[1])  # any order
+    other = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir)
+    assert same(other[3], first[0])
+    assert same(dataset[-27], first[0])  # negative indices as in a list
+    blob = pickle.dumps(dataset)  # after use: the generator is not carried
+    assert len(blob) < 20_000
+    assert same(pickle.loads(blob)[7], first[1])
+    with pytest.raises(IndexError):
+        dataset[30]
+    assert len(dataset) == 30
+    seeded = SyntheticDetection(GeneratorConfig.from_mapping({"seed": 6}, CONFIG), 30,
+                                sprites_dir=sprites_dir)
+    assert not torch.equal(seeded[3][0], first[0][0])
+    with pytest.raises(UserError, match="length"):
+        SyntheticDetection(CONFIG, -1)
+
+
+def test_dataloader_two_workers(dataset):
+    # busy OpenCV's thread pool in this process first: forked workers must not hang on it
+    for i in range(3):
+        dataset[i]
+    loader = torch.utils.data.DataLoader(dataset, batch_size=4, num_workers=2,
+                                         collate_fn=collate, timeout=300)
+    seen = []
+    for images, targets in loader:
+        assert len(images) == len(targets) <= 4
+        seen += list(zip(images, targets, strict=True))
+    assert len(seen) == len(dataset)
+    assert all(same(seen[i], dataset[i]) for i in (0, 13, 29))
+
+
+def test_dataloader_spawned_workers_get_a_small_pickle(dataset):
+    # spawn: the dataset reaches the workers pickled (config only); they build generators
+    subset = torch.utils.data.Subset(dataset, [2, 17, 23])
+    loader = torch.utils.data.DataLoader(subset, batch_size=2, num_workers=2,
+                                         collate_fn=collate, multiprocessing_context="spawn",
+                                         timeout=300)
+    seen = [item for images, targets in loader for item in zip(images, targets, strict=True)]
+    assert [t["image_id"] for _, t in seen] == [3, 18, 24]
+    assert all(same(item, dataset[i]) for item, i in zip(seen, (2, 17, 23), strict=True))
+
+
+def test_transforms_hook(sprites_dir):
+    calls = []
+
+    def flip(image, target):
+        calls.append(target["image_id"])
+        w = image.shape[-1]
+        target = dict(target, boxes=target["boxes"][:, [2, 1, 0, 3]] * torch.tensor(
+            [-1.0, 1.0, -1.0, 1.0]) + torch.tensor([w, 0.0, w, 0.0]),
+            masks=target["masks"].flip(-1))
+        return image.flip(-1), target
+
+    plain = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir)
+    flipped = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, transforms=flip)
+    (a, ta), (b, tb) = plain[4], flipped[4]
+    assert calls == [5]
+    assert torch.equal(b, a.flip(-1)) and torch.equal(tb["masks"], ta["masks"].flip(-1))
+
+
+def test_generated_coco_matches_on_the_fly(tmp_path, dataset, sprites_dir):
+    out = tmp_path / "ds"
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        rc = run_cli(main, ["--config", str(_toml(tmp_path)), "--n", "20", "--out", str(out),
+                            "--sprites", str(sprites_dir), "--workers", "1", "--no-progress"])
+    assert rc == 0, err.getvalue()
+    both = {}
+    for split in ("train", "val"):
+        ds = GeneratedCoco(out, split)
+        assert len(ds) > 0
+        for k in range(len(ds)):
+            image, t = ds[k]
+            both[t["image_id"]] = (image, t)
+    assert sorted(both) == list(range(1, 21))
+    for image_id, item in both.items():
+        assert same(item, dataset[image_id - 1])  # PNG images: bit-exact
+    assert len(GeneratedCoco(out, "all")) == 20
+    with pytest.raises(UserError, match="does not exist"):
+        GeneratedCoco(tmp_path / "nothing", "train")
+
+
+def _toml(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.to_toml())
+    return path
+
+
+def test_faster_rcnn_trains(dataset):
+    """A few torchvision Faster R-CNN steps on SyntheticDetection: the loss goes down."""
+    from torchvision.models.detection import fasterrcnn_mobilenet_v3_large_fpn
+
+    torch.manual_seed(0)
+    model = fasterrcnn_mobilenet_v3_large_fpn(weights=None, weights_backbone=None,
+                                              num_classes=2, min_size=96, max_size=96)
+    model.train()
+    ids = [i for i in range(len(dataset)) if len(dataset[i][1]["boxes"])][:4]
+    images, targets = collate([dataset[i] for i in ids])
+    targets = [{k: v for k, v in t.items() if k != "masks"} for t in targets]
+    opt = torch.optim.SGD(model.parameters(), lr=0.01, momentum=0.9)
+    losses = []
+    for _ in range(8):
+        loss = sum(model(list(images), targets).values())
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        losses.append(float(loss.detach()))
+    print("\nFaster R-CNN losses:", " ".join(f"{v:.3f}" for v in losses), file=sys.stderr)
+    assert all(np.isfinite(losses))
+    assert np.mean(losses[-3:]) < 0.8 * np.mean(losses[:3])
