@@ -4,6 +4,7 @@
     sdcomp generate ...           a dataset folder       (= python -m sdcomp.generate)
     sdcomp show DIR ...           a contact sheet        (= python -m sdcomp.show)
     sdcomp stats DIR ...          dataset statistics     (= python -m sdcomp.stats)
+    sdcomp merge DIR... --out D   join shard folders     (= python -m sdcomp.merge)
     sdcomp bench ...              detector benchmarks    (sdcomp.bench.cli)
 
 ``sdcomp COMMAND --help`` lists the command's options with their defaults and units. A
@@ -30,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "show": ("sdcomp.show", "main", "draw a contact sheet of a generated dataset"),
     "stats": ("sdcomp.stats", "main", "counts, object sizes and metadata histograms of a "
                                       "generated dataset"),
+    "merge": ("sdcomp.merge", "main", "join the folders of --shard runs into one dataset"),
     "bench": ("sdcomp.bench.cli", "main", "train and evaluate detectors on generated data "
                                           "(needs torch)"),
 }

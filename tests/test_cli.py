@@ -17,7 +17,7 @@ import cv2
 import pytest
 import tomllib
 
-from sdcomp import atlas, cli, generate, show, stats
+from sdcomp import atlas, cli, generate, merge, show, stats
 from sdcomp.config import GeneratorConfig
 from sdcomp.errors import run_cli
 
@@ -53,7 +53,7 @@ def test_console_script_entry_point():
 def test_top_level_help_and_errors():
     rc, out, _ = sdcomp(["--help"])
     assert rc == 0
-    for name in ("atlas", "generate", "show", "stats", "bench"):
+    for name in ("atlas", "generate", "show", "stats", "merge", "bench"):
         assert re.search(rf"^  {name} ", out, re.M)
     rc, _, err = sdcomp(["genrate", "--n", "3"])
     assert rc == 2 and "'genrate'" in err and "'generate'" in err
@@ -69,19 +69,20 @@ def test_missing_optional_command_is_one_clear_line(monkeypatch):
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
-@pytest.mark.parametrize("name", ["generate", "show", "stats", "atlas build"])
+@pytest.mark.parametrize("name", ["generate", "show", "stats", "merge", "atlas build"])
 def test_every_option_shows_its_default(name):
     if name == "atlas build":
         parser = atlas.build_parser()._subparsers._group_actions[0].choices["build"]
     else:
-        parser = {"generate": generate, "show": show, "stats": stats}[name].build_parser()
+        parser = {"generate": generate, "show": show, "stats": stats,
+                  "merge": merge}[name].build_parser()
     entries = option_entries(parser)
     assert len(entries) >= 3
     missing = [e for e in entries if "default" not in e]
     assert not missing, f"{name}: options without a default: {missing}"
 
 
-@pytest.mark.parametrize("module", ["generate", "show", "stats", "atlas"])
+@pytest.mark.parametrize("module", ["generate", "show", "stats", "merge", "atlas"])
 def test_python_m_forms_still_work(module):
     res = subprocess.run([sys.executable, "-m", f"sdcomp.{module}", "--help"], cwd=REPO,
                          capture_output=True, text=True, timeout=120)
