@@ -1,0 +1,117 @@
+"""The detector benchmark end to end on CPU (pytest-benchmark; figures in ``extra_info``).
+
+- ``test_smoke_grid``: ``python -m sdcomp.bench grid --preset smoke`` (every row of Tables
+  1-5, tiny) in a fresh folder: every table produced, every metric in [0, 1] or -1, the
+  training loss falling in every cell, the plots written; a second run skips every cell.
+- ``test_cpu_mobilenet_learns`` (``-m slow``, about 15 min on 2 cores): MobileNetV3-FPN from
+  scratch on 626 images at 10 m reaches AP50 >= 0.5 on the held-out synthetic field set.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import pytest
+import torch
+
+from sdcomp.bench.cli import main
+from sdcomp.bench.datasets import CacheOptions, FieldSpec, field_test
+from sdcomp.bench.evaluate import METRICS
+from sdcomp.bench.grid import PRESETS, Cell, GridSpec
+from sdcomp.bench.report import PLOTS
+from sdcomp.bench.runner import RunContext, run_cell
+from sdcomp.bench.train import TrainConfig
+from sdcomp.errors import run_cli
+
+SMOKE_LIMIT_S = 15 * 60  # the issue's bound for the smoke grid on this machine
+
+#: the opt-in CPU run: SGD at lr 0.01 (the paper's 0.001 barely moves a detector trained from
+#: scratch in a CPU budget; AdamW 1e-3 peaked at AP50 0.21 and fell to 0.10 by 600
+#: iterations), fewer proposals to keep an iteration near 2 s, multi-scale training
+#: (0.5-1x, as Detectron2's resize) for the field set's 10-20 m
+CPU_TRAIN = TrainConfig(backbone="mobilenet_v3-fpn", optimizer="sgd", lr=0.01,
+                        weight_decay=1e-4, max_iter=400, batch_size=4, warmup_iters=50,
+                        checkpoint_every=50, proposals_train=500, proposals_test=300,
+                        roi_batch=128, min_scale=0.5)
+#: 626 images at 10 m, water brown, blue or green per image (a brown-only model scores ~0 on
+#: the field set's blue and green water)
+CPU_CELL = Cell(10, "mixed", 626)
+
+
+@pytest.fixture()
+def one_thread():
+    """One torch thread: on a loaded 2-core machine two threads are many times slower."""
+    n = torch.get_num_threads()
+    yield
+    torch.set_num_threads(n)
+
+
+def test_smoke_grid(benchmark, sprites_dir, tmp_path, one_thread):
+    out = tmp_path / "r"
+    argv = ["grid", "--preset", "smoke", "--out", str(out), "--sprites", str(sprites_dir),
+            "--threads", "1"]
+    timing = {}
+
+    def once():
+        t0 = time.perf_counter()
+        assert run_cli(main, argv) == 0
+        timing["first"] = time.perf_counter() - t0
+
+    benchmark.pedantic(once, rounds=1, iterations=1)
+    spec = PRESETS["smoke"]
+    report = (out / "report.md").read_text()
+    for t in (1, 2, 3, 4, 5):
+        assert f"## Table {t}:" in report
+    assert "(not run)" not in report and "synthetic-field" in report
+    assert sorted(p.name for p in (out / "plots").iterdir()) == sorted(PLOTS)
+    cells = [json.loads(p.read_text()) for p in sorted((out / "cells").glob("*.json"))]
+    assert sorted(c["cell"] for c in cells) == sorted(c.id for c in spec.cells())
+    per_cell = {}
+    for c in cells:
+        for part in ("test", "val"):
+            for k in METRICS:
+                v = c[part]["metrics"][k]
+                assert isinstance(v, float) and (v == -1.0 or 0.0 <= v <= 1.0), (c["cell"], k)
+        assert c["test"]["test_set"].startswith("synthetic-field")
+        losses = [row[0] for row in c["training"]["losses"]]
+        assert len(losses) == spec.train.max_iter
+        k = len(losses) // 3
+        assert sum(losses[-k:]) / k < 0.8 * sum(losses[:k]) / k, (c["cell"], losses)
+        per_cell[c["cell"]] = c["wall_time_s"]["total"]
+    # a second run finds every cell done
+    t0 = time.perf_counter()
+    before = {p.name: p.read_bytes() for p in (out / "cells").glob("*.json")}
+    assert run_cli(main, argv) == 0
+    rerun = time.perf_counter() - t0
+    assert {p.name: p.read_bytes() for p in (out / "cells").glob("*.json")} == before
+    benchmark.extra_info.update(
+        wall_s=round(timing["first"], 1), rerun_s=round(rerun, 1), cells=len(cells),
+        cell_s_mean=round(sum(per_cell.values()) / len(per_cell), 2),
+        cell_s_max=round(max(per_cell.values()), 2))
+    print(f"\nsmoke grid: {timing['first']:.1f} s for {len(cells)} cells "
+          f"({benchmark.extra_info['cell_s_mean']} s per cell, max "
+          f"{benchmark.extra_info['cell_s_max']} s); re-run {rerun:.1f} s")
+    assert timing["first"] < SMOKE_LIMIT_S
+    assert rerun < timing["first"]
+
+
+@pytest.mark.slow
+def test_cpu_mobilenet_learns(benchmark, sprites_dir, tmp_path, one_thread):
+    torch.set_num_threads(1)
+    grid = GridSpec("cpu", tables=(1,), train=CPU_TRAIN, field=FieldSpec(n=100))
+    cache = CacheOptions(tmp_path / "datasets", sprites_dir, 2, False)
+    ctx = RunContext(tmp_path / "r", cache, "cpu", False, 8)
+    test = field_test(grid.field, grid.image_size, cache)
+    result = {}
+
+    def once():
+        result.update(run_cell(CPU_CELL, grid, test, ctx))
+
+    benchmark.pedantic(once, rounds=1, iterations=1)
+    m, val = result["test"]["metrics"], result["val"]["metrics"]
+    benchmark.extra_info.update(test_AP50=m["AP50"], test_AP=m["AP"], val_AP50=val["AP50"],
+                                wall_s=result["wall_time_s"])
+    print(f"\ncpu benchmark: field AP50 {m['AP50']:.3f} AP {m['AP']:.3f}, val AP50 "
+          f"{val['AP50']:.3f}, {result['wall_time_s']}")
+    assert m["AP50"] >= 0.5

@@ -1,0 +1,100 @@
+"""COCO detection metrics with pycocotools, and scoring a detector on a test set.
+
+Metrics (:data:`METRICS`), as COCOeval's ``stats`` for bounding boxes, each a fraction in
+[0, 1] (the paper prints them x 100), or ``-1`` where COCO defines none (no ground-truth box
+in that area range, e.g. APl when every object is under 96^2 px):
+
+- ``AP``: mean over IoU 0.50:0.05:0.95, ``AP50``/``AP75``: at IoU 0.5/0.75,
+- ``APs``/``APm``/``APl``: AP of objects under 32^2 px, 32^2-96^2 px, over 96^2 px (area =
+  the ground truth's COCO ``area``),
+- ``AR100``: recall averaged over IoU 0.50:0.95 with at most 100 detections per image.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+
+import numpy as np
+from pycocotools.coco import COCO
+from pycocotools.cocoeval import COCOeval
+
+METRICS = ("AP", "AP50", "AP75", "APs", "APm", "APl", "AR100")
+_STAT_INDEX = {"AP": 0, "AP50": 1, "AP75": 2, "APs": 3, "APm": 4, "APl": 5, "AR100": 8}
+
+
+def coco_from_dict(data: dict) -> COCO:
+    """A pycocotools ``COCO`` index over an in-memory COCO dict (no file, no printing)."""
+    coco = COCO()
+    coco.dataset = data
+    with contextlib.redirect_stdout(io.StringIO()):
+        coco.createIndex()
+    return coco
+
+
+def coco_metrics(gt: dict, detections: list[dict]) -> dict[str, float]:
+    """COCOeval bounding-box metrics of ``detections`` against the COCO dict ``gt``.
+
+    ``detections``: dicts with ``image_id``, ``category_id`` (ids of ``gt``), ``bbox``
+    [x, y, w, h] pixels and ``score``. Returns {metric: float} for :data:`METRICS`, each in
+    [0, 1] or -1 (undefined). No detections at all give 0 wherever ground truth exists.
+    """
+    gt_coco = coco_from_dict(gt)
+    anns = []
+    for k, d in enumerate(detections):
+        x, y, w, h = (float(v) for v in d["bbox"])
+        anns.append({"id": k + 1, "image_id": int(d["image_id"]),
+                     "category_id": int(d["category_id"]), "bbox": [x, y, w, h],
+                     "area": w * h, "score": float(d["score"]), "iscrowd": 0})
+    dt_coco = coco_from_dict({"images": gt.get("images", []),
+                              "categories": gt.get("categories", []), "annotations": anns})
+    ev = COCOeval(gt_coco, dt_coco, iouType="bbox")
+    with contextlib.redirect_stdout(io.StringIO()):
+        ev.evaluate()
+        ev.accumulate()
+        ev.summarize()
+    return {m: _clean(ev.stats[i]) for m, i in _STAT_INDEX.items()}
+
+
+def _clean(v: float) -> float:
+    v = float(v)
+    return -1.0 if v < 0 else round(min(max(v, 0.0), 1.0), 6)
+
+
+def detections_to_coco(image_ids: list[int], results: list, category_id: int,
+                       label: int = 1) -> list[dict]:
+    """COCO result dicts from :func:`~.detector.predict` output.
+
+    ``results[k]`` = (boxes (K, 4) x0, y0, x1, y1 px, scores (K,), labels (K,)) of image
+    ``image_ids[k]``; detections of class ``label`` become ``category_id``.
+    """
+    out = []
+    for image_id, (boxes, scores, labels) in zip(image_ids, results, strict=True):
+        keep = np.asarray(labels) == label
+        for (x0, y0, x1, y1), s in zip(np.asarray(boxes)[keep], np.asarray(scores)[keep],
+                                       strict=True):
+            out.append({"image_id": int(image_id), "category_id": int(category_id),
+                        "bbox": [round(float(x0), 2), round(float(y0), 2),
+                                 round(float(x1 - x0), 2), round(float(y1 - y0), 2)],
+                        "score": round(float(s), 5)})
+    return out
+
+
+def evaluate_detector(model, test, device: str = "cpu", batch_size: int = 4) -> dict:
+    """Score ``model`` on ``test`` (a :class:`~.datasets.EvalSet`); returns its metrics, the
+    number of images and of ground-truth boxes, and the test set's label."""
+    from .detector import predict
+    from .train import read_image
+
+    ids, results = [], []
+    images = test.coco["images"]
+    for k in range(0, len(images), batch_size):
+        chunk = images[k:k + batch_size]
+        arrays = [read_image(test.image_path(im)) for im in chunk]
+        results.extend(predict(model, arrays, device, batch_size))
+        ids.extend(int(im["id"]) for im in chunk)
+    dets = detections_to_coco(ids, results, test.category_id)
+    gt = test.coco_for_category()
+    return {"test_set": test.label, "images": len(images),
+            "boxes": len(gt["annotations"]), "detections": len(dets),
+            "metrics": coco_metrics(gt, dets)}
