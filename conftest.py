@@ -12,3 +12,15 @@ def sprites_dir(tmp_path_factory) -> Path:
     """One sprite-atlas folder for the whole test session (atlases are built on first use
     and reused, as a user's ``sprites/`` would be); never the repository's own."""
     return tmp_path_factory.mktemp("sprites")
+
+
+@pytest.fixture
+def one_torch_thread():
+    """One torch thread during the test (two threads on a loaded 2-core machine are many
+    times slower than one), the previous count restored after it."""
+    import torch  # only the tests that ask for this fixture need torch
+
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)

@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pytest
-import torch
 
 from sdcomp.bench.cli import main
 from sdcomp.bench.datasets import CacheOptions, FieldSpec, field_test
@@ -24,12 +23,7 @@ GRID = GridSpec("tiny", tables=(2,), size_scale=0.001, min_images=4, image_size=
                 train=TRAIN, field=FieldSpec(n=3))
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def test_half_done_grid_resumes_and_reports(tmp_path, sprites_dir):

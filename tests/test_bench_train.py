@@ -20,13 +20,7 @@ TINY = TrainConfig(backbone="mobilenet_v3-fpn", lr=0.01, max_iter=4, batch_size=
                    roi_batch=16)
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    """One torch thread: two threads on a loaded 2-core machine are many times slower."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
