@@ -9,13 +9,15 @@ worker was busy with. Workers record that item in shared memory with :func:`note
 known even when the worker dies without a word.
 
 Workers are forked where the platform can (they inherit the caller's loaded state: textures,
-sprite atlases), with SIGINT and SIGTERM blocked while forking; in a worker SIGINT is ignored
+sprite atlases), with SIGINT and SIGTERM blocked and OpenCV's threads paused while forking
+(:func:`pause_opencv_threads_on_fork`); in a worker SIGINT is ignored
 (the parent handles Ctrl-C and stops the workers) and SIGTERM ends it. A worker whose parent
 has gone (the parent was killed with SIGKILL) stops at its next :func:`note`.
 """
 
 from __future__ import annotations
 
+import copy
 import multiprocessing as mp
 import os
 import pickle
@@ -49,6 +51,40 @@ class WorkerDied(UserError):
 
     def __reduce__(self):
         return type(self), (self.args[0], self.item, self.pid, self.exitcode)
+
+
+_fork_threads: list[int] = []  # OpenCV thread counts saved by forks in progress
+_fork_handlers: list[bool] = []  # [True] once the handlers are installed
+
+
+def _pause_opencv() -> None:
+    _fork_threads.append(cv2.getNumThreads())
+    cv2.setNumThreads(1)
+
+
+def _resume_opencv() -> None:
+    if _fork_threads:
+        cv2.setNumThreads(_fork_threads.pop())
+
+
+def _child_opencv() -> None:
+    _fork_threads.clear()
+    cv2.setNumThreads(1)
+
+
+def pause_opencv_threads_on_fork() -> None:
+    """Make every later ``os.fork`` of this process safe for OpenCV (idempotent).
+
+    OpenCV's thread pool does not survive fork: a forked child can hang in its first
+    parallel OpenCV call. The handlers installed here stop the pool (one thread) while the
+    process forks, restore it in the parent afterwards and leave the child with one thread.
+    Used by this pool's workers and by the DataLoader workers of :mod:`sdcomp.torch`.
+    """
+    if _fork_handlers or not hasattr(os, "register_at_fork"):
+        return
+    os.register_at_fork(before=_pause_opencv, after_in_parent=_resume_opencv,
+                        after_in_child=_child_opencv)
+    _fork_handlers.append(True)
 
 
 def note(item: int) -> None:
@@ -91,10 +127,13 @@ def _serve(slot: int, conn, current, parent: int, func: Callable, initializer, i
 
 
 def _portable(exc: Exception) -> Exception:
-    """``exc`` if it pickles, with the worker's traceback as a note, else a RuntimeError."""
+    """``exc`` if it survives the pipe, with the worker's traceback as a note, else a
+    RuntimeError. Surviving means it pickles and can be rebuilt from its reduction, which
+    ``copy.copy`` does the way unpickling would (nothing is unpickled here)."""
     text = "".join(traceback.format_exception(exc)).rstrip()
     try:
-        pickle.loads(pickle.dumps(exc))
+        pickle.dumps(exc)
+        copy.copy(exc)
     except Exception:
         exc = RuntimeError(f"{type(exc).__name__}: {exc}")
     if not isinstance(exc, (UserError, OSError)):
@@ -131,10 +170,8 @@ def imap_ordered(func: Callable[[Any], Any], tasks: Sequence, workers: int, *,
     workers = max(1, min(int(workers), len(tasks)))
     current = ctx.RawArray("q", workers)
     procs, conns = [], []
-    # OpenCV's thread pool does not survive fork (children deadlock in their first parallel
-    # call): stop it while forking; and keep Ctrl-C away from half-started workers
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)
+    pause_opencv_threads_on_fork()  # children would hang in OpenCV's thread pool
+    # keep Ctrl-C away from half-started workers
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
     try:
         for slot in range(workers):
@@ -148,7 +185,6 @@ def imap_ordered(func: Callable[[Any], Any], tasks: Sequence, workers: int, *,
             conns.append(mine)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
-        cv2.setNumThreads(threads)
     clean = False
     try:
         busy: dict[int, int] = {}  # slot: task number

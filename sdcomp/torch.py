@@ -24,15 +24,14 @@ pickled copy (``multiprocessing_context="spawn"``) builds its own generator on f
 
 OpenCV's thread pool does not survive ``fork`` (a forked child can hang in its first parallel
 OpenCV call), and DataLoader workers are forked on Linux. Importing this module therefore
-registers fork handlers that pause OpenCV's threads while any process forks and leave the
-child with one OpenCV thread (a DataLoader worker is one of several processes anyway).
+installs :func:`sdcomp.pool.pause_opencv_threads_on_fork`: OpenCV's threads pause while any
+process forks and the child keeps one (a DataLoader worker is one of several processes).
 
 This module is the only one in sdcomp that imports torch.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -45,31 +44,12 @@ from .config import GeneratorConfig
 from .errors import UserError
 from .generator import DEFAULT_SPRITES, Generator
 from .pngio import decode_png16
+from .pool import pause_opencv_threads_on_fork
 
 Target = dict[str, Any]
 Transforms = Callable[[torch.Tensor, Target], tuple[torch.Tensor, Target]]
 
-_threads_before_fork: list[int] = []
-
-
-def _before_fork() -> None:
-    _threads_before_fork.append(cv2.getNumThreads())
-    cv2.setNumThreads(1)
-
-
-def _after_fork_parent() -> None:
-    if _threads_before_fork:
-        cv2.setNumThreads(_threads_before_fork.pop())
-
-
-def _after_fork_child() -> None:
-    _threads_before_fork.clear()
-    cv2.setNumThreads(1)
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_parent,
-                        after_in_child=_after_fork_child)
+pause_opencv_threads_on_fork()  # DataLoader workers are forked on Linux
 
 
 def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[int],
