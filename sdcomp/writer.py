@@ -397,14 +397,14 @@ def _run(config: GeneratorConfig, options: RunOptions, gen: Generator, done: set
     out = options.out
     indices = run_indices(config, options.shard)
     pending = [i for i in indices if i not in done]
-    write_annotations(config, out, "running", options.shard)
     chunks = [pending[k:k + CHUNK] for k in range(0, len(pending), CHUNK)]
     progress = Progress(len(pending), "generate", options.progress, unit="img")
     last = time.monotonic()
     status = "interrupted"
-    old_term = _on_sigterm()
     failure: OSError | None = None
-    try:
+    old_term = _on_sigterm()
+    try:  # from the first write on, Ctrl-C or SIGTERM ends with the final write below
+        write_annotations(config, out, "running", options.shard)
         with Journal(out / "records.jsonl") as journal, \
                 closing(_results(gen, chunks, options)) as results:
             for records in results:
