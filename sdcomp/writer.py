@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import multiprocessing as mp
 import os
 import shutil
@@ -51,7 +52,9 @@ FORMAT_VERSION = 1
 OURS = ("images", "masks", "annotations", "records.jsonl", "dataset.json", "labels",
         "train.txt", "val.txt", "data.yaml")
 SPLIT_BLOCK = 100  # val images are exactly round(f * 100) of every 100 consecutive ones
-CHUNK = 32  # images per task handed to a worker
+CHUNK = 32  # images per task handed to a worker, at most
+CHUNK_PIXELS = 8_000_000  # pixels per task at most: a full-resolution frame is a task
+TASKS_PER_WORKER = 4  # short runs are cut into at least this many tasks per worker
 CHECKPOINT_SECONDS = 60.0  # COCO files are rewritten at least this often during a run
 MASK_RULE = (f"a pixel belongs to an object when the object supplies at least "
              f"{MASK_THRESHOLD:g} of its colour (coverage x water transmittance x what is "
@@ -175,6 +178,18 @@ def _work(indices: list[int]) -> list[dict]:
         note(i)  # named by WorkerDied should this image kill the worker
         records.append(make_record(gen, i, _WORKER["out"]))
     return records
+
+
+def chunk_size(width: int, height: int, pending: int, workers: int) -> int:
+    """Images per task: up to :data:`CHUNK` small images (fewer round trips to the
+    workers), fewer for large frames (:data:`CHUNK_PIXELS`), and small enough that each of
+    ``workers`` gets :data:`TASKS_PER_WORKER` tasks, so no worker idles while another
+    renders the last big task."""
+    by_pixels = CHUNK_PIXELS // max(1, width * height)
+    size = min(CHUNK, by_pixels)
+    if workers > 1:
+        size = min(size, math.ceil(pending / (TASKS_PER_WORKER * workers)))
+    return max(1, size)
 
 
 def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> Iterable[list]:
@@ -397,7 +412,8 @@ def _run(config: GeneratorConfig, options: RunOptions, gen: Generator, done: set
     out = options.out
     indices = run_indices(config, options.shard)
     pending = [i for i in indices if i not in done]
-    chunks = [pending[k:k + CHUNK] for k in range(0, len(pending), CHUNK)]
+    size = chunk_size(config.width, config.height, len(pending), options.workers)
+    chunks = [pending[k:k + size] for k in range(0, len(pending), size)]
     progress = Progress(len(pending), "generate", options.progress, unit="img")
     last = time.monotonic()
     status = "interrupted"

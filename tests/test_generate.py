@@ -616,3 +616,15 @@ def test_backgrounds_folder_of_photos(tmp_path, sprites_dir):
         assert not (proc[0] > proc[1] + 60 and proc[2] > proc[1] + 60), (name, proc)
     cfg = json.loads((a / "dataset.json").read_text())["config"]
     assert cfg["backgrounds"] == str(bg)
+
+
+def test_chunk_size_follows_frame_size_and_run_length():
+    """Tasks handed to workers: up to CHUNK small images, one full-resolution frame per
+    task, and short runs cut so that every worker gets several tasks."""
+    assert writer.chunk_size(416, 416, 2500, 2) == writer.CHUNK
+    assert writer.chunk_size(416, 416, 2500, 1) == writer.CHUNK
+    assert writer.chunk_size(5472, 3648, 2500, 2) == 1
+    assert writer.chunk_size(30000, 30000, 1, 1) == 1
+    assert writer.chunk_size(416, 416, 40, 2) == 5  # 8 tasks for 2 workers
+    assert writer.chunk_size(416, 416, 40, 1) == writer.CHUNK  # no pool: fewer journal writes
+    assert writer.chunk_size(2000, 2000, 2500, 2) == writer.CHUNK_PIXELS // 4_000_000
