@@ -56,6 +56,7 @@ GRID = 16  # pixels between samples of the smooth background terms
 BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
 BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
+LINE_TAPS_MIN = 16  # motion blur this long or longer sums shifted frames (_line_mean)
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
 GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
@@ -578,15 +579,13 @@ class Compositor:
                                interpolation=cv2.INTER_AREA)
             if fx.motion_blur is not None:
                 length, angle = fx.motion_blur
-                small = cv2.filter2D(small, -1, _motion_kernel(length / f, angle),
-                                     borderType=cv2.BORDER_REFLECT)
+                small = _motion_blur(small, length / f, angle)
             if fx.defocus_blur is not None:
                 small = cv2.GaussianBlur(small, (0, 0), fx.defocus_blur / f)
             cv2.resize(small, (w, h), dst=image, interpolation=cv2.INTER_LINEAR)
         else:
             if fx.motion_blur is not None:
-                image = cv2.filter2D(image, -1, _motion_kernel(*fx.motion_blur),
-                                     borderType=cv2.BORDER_REFLECT)
+                image = _motion_blur(image, *fx.motion_blur)
             if fx.defocus_blur is not None:
                 image = cv2.GaussianBlur(image, (0, 0), fx.defocus_blur)
         if fx.noise > 0:
@@ -615,6 +614,68 @@ def _add_noise(image: np.ndarray, noise: np.ndarray, s: float, rng) -> np.ndarra
             cv2.addWeighted(block, 1.0, noise[ty0 - y:ty1 - y, tx0 - x:tx1 - x], s,
                             -128.0 * s, dst=block)
     return image
+
+
+def _motion_blur(image: np.ndarray, length: float, angle: float) -> np.ndarray:
+    """Motion blur of a uint8 (H, W, C) ``image`` along a line of ``length`` pixels at
+    ``angle`` degrees, borders reflected: a convolution with :func:`_motion_kernel` for
+    short lines, :func:`_line_mean` (the same line, its taps one pixel apart) from
+    :data:`LINE_TAPS_MIN` taps on, where a dense kernel costs seconds per 20-megapixel
+    frame."""
+    if round(length) < LINE_TAPS_MIN:
+        return cv2.filter2D(image, -1, _motion_kernel(length, angle),
+                            borderType=cv2.BORDER_REFLECT)
+    return _line_mean(image, int(round(length)), angle)
+
+
+def _line_mean(image: np.ndarray, n: int, angle: float) -> np.ndarray:
+    """Mean of ``n`` taps of a uint8 (H, W, C) ``image`` one pixel apart along ``angle``
+    degrees, centred on each pixel, borders reflected; uint8 (H, W, C).
+
+    Sums of ``2**k`` consecutive taps are built by doubling (the sum of ``2m`` taps is the
+    sum of ``m`` plus the same shifted by ``m`` taps) and ``n`` is put together from its
+    binary digits: ``2 log2(n)`` whole-frame additions instead of ``n**2`` multiplications
+    per pixel. Tap positions are rounded per piece, so a tap can sit up to about
+    ``log2(n) / 2`` pixels off the exact line.
+    """
+    dx, dy = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+
+    def at(t: float) -> tuple[int, int]:
+        return int(round(t * dx)), int(round(t * dy))
+
+    pad = n + 2
+    h, w = image.shape[:2]
+    canvas = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_REFLECT)
+    piece = (canvas.astype(np.uint16 if n <= 257 else np.int32), 0, 0)
+    total, start, m = None, 0, 1
+    while True:
+        if n & m:  # the next m taps, from tap `start` on
+            ox, oy = at(start)
+            moved = (piece[0], piece[1] - ox, piece[2] - oy)
+            total = moved if total is None else _sum_shifted(total, moved, (0, 0))
+            start += m
+        if 2 * m > n:
+            break
+        piece = _sum_shifted(piece, piece, at(m))
+        m *= 2
+    cx, cy = at(-(n - 1) / 2)  # centre the line on the pixel
+    arr, x0, y0 = total
+    ys, xs = pad + cy - y0, pad + cx - x0  # the frame's corner in `arr`
+    return cv2.convertScaleAbs(arr[ys:ys + h, xs:xs + w], alpha=1.0 / n)
+
+
+def _sum_shifted(a: tuple, b: tuple, shift: tuple[int, int]) -> tuple:
+    """``c(q) = a(q) + b(q + shift)`` over the points ``q`` where both are defined.
+
+    Each argument and the result is ``(array, x0, y0)``: ``array[y, x]`` holds the value at
+    canvas point ``(x0 + x, y0 + y)``."""
+    (pa, ax, ay), (pb, bx, by), (sx, sy) = a, b, shift
+    x0, y0 = max(ax, bx - sx), max(ay, by - sy)
+    x1 = min(ax + pa.shape[1], bx - sx + pb.shape[1])
+    y1 = min(ay + pa.shape[0], by - sy + pb.shape[0])
+    out = cv2.add(pa[y0 - ay:y1 - ay, x0 - ax:x1 - ax],
+                  pb[y0 + sy - by:y1 + sy - by, x0 + sx - bx:x1 + sx - bx])
+    return out, x0, y0
 
 
 def _motion_kernel(length: float, angle: float) -> np.ndarray:

@@ -500,3 +500,28 @@ def test_rgb_to_bgr_in_place_by_bands():
     want = image[..., ::-1].copy()
     assert _rgb_to_bgr_in_place(image, band_bytes=100) is image  # 3 rows per band
     assert np.array_equal(image, want)
+
+
+@pytest.mark.parametrize("n", [17, 31])
+def test_long_motion_blur_is_a_line_mean(n):
+    """From LINE_TAPS_MIN taps on, motion blur sums shifted frames: along the rows or the
+    columns it is a centred box mean with reflected borders (as cv2.blur computes it), a
+    flat image stays flat, and along a diagonal it stays close to the dense line kernel."""
+    from sdcomp.compositor import LINE_TAPS_MIN, _motion_blur, _motion_kernel
+
+    assert n >= LINE_TAPS_MIN
+    rng = np.random.default_rng(n)
+    image = rng.integers(0, 256, (60, 90, 3), dtype=np.uint8)
+    for angle, size in ((0.0, (n, 1)), (90.0, (1, n)), (180.0, (n, 1))):
+        want = cv2.blur(image, size, borderType=cv2.BORDER_REFLECT)
+        got = _motion_blur(image, float(n), angle)
+        assert got.shape == image.shape and got.dtype == np.uint8
+        assert np.abs(got.astype(int) - want).max() <= 1  # rounding only
+    flat = np.full((40, 50, 3), 77, np.uint8)
+    assert (_motion_blur(flat, float(n), 33.0) == 77).all()
+    smooth = cv2.resize(image[:20, :30], (300, 200), interpolation=cv2.INTER_CUBIC)
+    dense = cv2.filter2D(smooth, -1, _motion_kernel(float(n), 33.0),
+                         borderType=cv2.BORDER_REFLECT)
+    got = _motion_blur(smooth, float(n), 33.0)
+    change = np.abs(dense.astype(int) - smooth).mean()
+    assert np.abs(got.astype(int) - dense).mean() < 0.3 * change  # taps up to ~2 px apart
