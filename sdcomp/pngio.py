@@ -9,19 +9,27 @@ module writes the few bytes a PNG needs itself and leaves the work to one zlib s
 * ``IEND``.
 
 The scanlines are built with numpy in bands of rows (so a 20-megapixel mask never needs one
-40 MB buffer) and fed to ``zlib.compressobj(1, DEFLATED, 15, 4, Z_DEFAULT_STRATEGY)``.
-Measured choices (416x416 and 5472x3648 masks, mostly zero with a few id rectangles):
+40 MB buffer) and fed to a raw deflate stream (``zlib.compressobj(1, DEFLATED, -15, 4)``)
+framed as zlib data by this module (header, Adler-32). Runs of all-zero rows, most of a
+mask, are not compressed per image: each is a concatenation of cached deflate pieces for
+``2**k`` zero rows of that width, each piece ending on a full flush (byte-aligned, no
+reference to earlier data), and their Adler-32 is updated arithmetically (zeros leave the
+first sum unchanged and add ``n * a`` to the second). Measured choices (416x416 and
+5472x3648 masks, mostly zero with a few id rectangles):
 
 * level 1 default strategy compresses such masks ~170x; ``Z_RLE`` is no faster here and gives
   files 1.5-2.5x bigger; higher levels are slower for little gain (level 6 is ~2x slower);
 * ``memLevel`` 4 instead of 9 makes a small mask up to about twice as fast (zlib's per-stream
-  set-up dominates at 416x416) and costs ~1-2% in size.
+  set-up dominates at 416x416) and costs ~1-2% in size;
+* skipping the zero rows makes a generated mask 3-4x faster to encode (zlib spent most of
+  its time on zeros).
 
 The output depends only on the mask and ``level`` (byte-identical for the same input).
 """
 
 from __future__ import annotations
 
+import functools
 import struct
 import threading
 import zlib
@@ -31,6 +39,7 @@ import numpy as np
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MEM_LEVEL = 4  # zlib memLevel: see the module docstring
 BAND_BYTES = 1 << 20  # raw scanline bytes per band fed to zlib
+ADLER_MOD = 65521  # the Adler-32 modulus
 IDAT_MAX = 1 << 24  # bytes of compressed data per IDAT chunk at most (the format allows 2**31-1)
 
 _scratch = threading.local()  # per-thread reusable buffers: fresh ones cost page faults
@@ -50,6 +59,38 @@ def _buffers(rows: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     raw2d = raw[:n_raw].reshape(rows, 2 * w + 1)
     raw2d[:, 0] = 0  # filter type None on every row
     return raw2d, be[:n_be].reshape(rows, w)
+
+
+def _row_runs(mask: np.ndarray) -> list[tuple[int, int, bool]]:
+    """Runs of rows of a 2-D ``mask``: (first row, end row, whether any value is nonzero)."""
+    has = np.count_nonzero(mask, axis=1) > 0
+    edges = np.flatnonzero(has[1:] != has[:-1]) + 1
+    bounds = [0, *edges.tolist(), mask.shape[0]]
+    return [(y0, y1, bool(has[y0])) for y0, y1 in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+@functools.lru_cache(maxsize=256)
+def _zero_piece(row_bytes: int, rows: int, level: int) -> bytes:
+    """Raw deflate data of ``rows`` all-zero scanlines (filter byte and samples), ending
+    on a full flush: non-final, byte-aligned blocks that refer to nothing before them."""
+    comp = zlib.compressobj(level, zlib.DEFLATED, -15, MEM_LEVEL, zlib.Z_DEFAULT_STRATEGY)
+    return comp.compress(bytes(rows * row_bytes)) + comp.flush(zlib.Z_FULL_FLUSH)
+
+
+def _zero_pieces(row_bytes: int, rows: int, level: int) -> list[bytes]:
+    """Deflate pieces for ``rows`` zero scanlines: cached pieces of ``2**k`` rows (none over
+    :data:`BAND_BYTES` of scanlines, but at least one row)."""
+    top = 1
+    while 2 * top * row_bytes <= BAND_BYTES:
+        top *= 2
+    out = []
+    k = top
+    while rows:
+        while k > rows:
+            k //= 2
+        out.append(_zero_piece(row_bytes, k, level))
+        rows -= k
+    return out
 
 
 def _chunk(kind: bytes, data: bytes) -> bytes:
@@ -78,16 +119,27 @@ def encode_png16(mask: np.ndarray, level: int = 1) -> bytes:
 
     row_bytes = 2 * w + 1
     band = max(1, min(h, BAND_BYTES // row_bytes))
-    comp = zlib.compressobj(int(level), zlib.DEFLATED, 15, MEM_LEVEL, zlib.Z_DEFAULT_STRATEGY)
+    comp = zlib.compressobj(int(level), zlib.DEFLATED, -15, MEM_LEVEL, zlib.Z_DEFAULT_STRATEGY)
     raw, be = _buffers(band, w)
-    parts = []
-    for y in range(0, h, band):  # one pass for masks up to ~1 MB of scanlines
-        rows = mask[y:y + band]
-        n = rows.shape[0]
-        np.copyto(be[:n], rows)  # to big-endian (aligned, fast)
-        raw[:n, 1:] = be[:n].view(np.uint8)
-        parts.append(comp.compress(raw[:n]))
-    parts.append(comp.flush())
+    parts = [b"\x78\x01"]  # zlib header: deflate, 32 kB window
+    adler = 1
+    for y0, y1, has_ids in _row_runs(mask):
+        if not has_ids:
+            parts.extend(_zero_pieces(row_bytes, y1 - y0, int(level)))
+            n = (y1 - y0) * row_bytes  # Adler-32 of n zero bytes
+            a, b = adler & 0xFFFF, adler >> 16
+            adler = (((b + n * a) % ADLER_MOD) << 16) | a
+            continue
+        for y in range(y0, y1, band):
+            rows = mask[y:min(y + band, y1)]
+            n = rows.shape[0]
+            np.copyto(be[:n], rows)  # to big-endian (aligned, fast)
+            raw[:n, 1:] = be[:n].view(np.uint8)
+            parts.append(comp.compress(raw[:n]))
+            adler = zlib.adler32(raw[:n], adler)
+        parts.append(comp.flush(zlib.Z_FULL_FLUSH))  # byte-aligned: zero pieces may follow
+    parts.append(comp.flush(zlib.Z_FINISH))
+    parts.append(struct.pack(">I", adler))
     stream = b"".join(parts)
 
     ihdr = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)

@@ -140,3 +140,25 @@ def test_decode_rejects_other_pngs():
     ok, gray8 = cv2.imencode(".png", np.zeros((4, 4), np.uint8))
     with pytest.raises(ValueError):
         decode_png16(gray8.tobytes())
+
+
+@pytest.mark.parametrize("band_bytes", [1, 300, 1 << 20])
+def test_zero_row_runs_of_every_length(monkeypatch, band_bytes):
+    """Runs of zero rows (cached deflate pieces, Adler-32 updated arithmetically) between
+    rows with ids, at the top, at the bottom and alone: zlib's own checksum test and
+    OpenCV's decoder both accept the stream, and the rows come back."""
+    monkeypatch.setattr(pngio, "BAND_BYTES", band_bytes)
+    rng = np.random.default_rng(band_bytes)
+    mask = np.zeros((320, 37), np.uint16)
+    y = 1
+    for run in range(1, 24):  # id rows separated by zero runs of 1, 2, ... 23 rows
+        mask[y, rng.integers(0, 37)] = run
+        y += run + 1
+    assert y < 320 and not mask[y:].any() and not mask[0].any()
+    parts = chunks(encode_png16(mask))
+    raw = zlib.decompress(b"".join(body for k, body in parts if k == b"IDAT"))  # checks Adler-32
+    rows = np.frombuffer(raw, np.uint8).reshape(320, 1 + 2 * 37)
+    np.testing.assert_array_equal(rows[:, 1:].copy().view(">u2"), mask)
+    np.testing.assert_array_equal(cv2_read(encode_png16(mask)), mask)
+    for m in (mask[:1] * 0, mask[1:2], np.zeros((1000, 3), np.uint16)):
+        np.testing.assert_array_equal(cv2_read(encode_png16(m)), m)
