@@ -57,6 +57,7 @@ BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
 BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
 LINE_TAPS_MIN = 16  # motion blur this long or longer sums shifted frames (_line_mean)
+LINE_BAND_BYTES = 24 << 20  # _line_mean works in bands of rows of about this many bytes
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
 GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
@@ -636,7 +637,9 @@ def _line_mean(image: np.ndarray, n: int, angle: float) -> np.ndarray:
     sum of ``m`` plus the same shifted by ``m`` taps) and ``n`` is put together from its
     binary digits: ``2 log2(n)`` whole-frame additions instead of ``n**2`` multiplications
     per pixel. Tap positions are rounded per piece, so a tap can sit up to about
-    ``log2(n) / 2`` pixels off the exact line.
+    ``log2(n) / 2`` pixels off the exact line. The frame is done in bands of rows of about
+    :data:`LINE_BAND_BYTES` of sums: fresh frame-sized sums cost more in page faults than in
+    additions.
     """
     dx, dy = math.cos(math.radians(angle)), math.sin(math.radians(angle))
 
@@ -644,24 +647,34 @@ def _line_mean(image: np.ndarray, n: int, angle: float) -> np.ndarray:
         return int(round(t * dx)), int(round(t * dy))
 
     pad = n + 2
-    h, w = image.shape[:2]
-    canvas = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_REFLECT)
-    piece = (canvas.astype(np.uint16 if n <= 257 else np.int32), 0, 0)
-    total, start, m = None, 0, 1
-    while True:
-        if n & m:  # the next m taps, from tap `start` on
-            ox, oy = at(start)
-            moved = (piece[0], piece[1] - ox, piece[2] - oy)
-            total = moved if total is None else _sum_shifted(total, moved, (0, 0))
-            start += m
-        if 2 * m > n:
-            break
-        piece = _sum_shifted(piece, piece, at(m))
-        m *= 2
+    h, w, c = image.shape[0], image.shape[1], (image.shape[2] if image.ndim == 3 else 1)
+    dtype = np.uint16 if n <= 257 else np.int32
+    rows = max(1, LINE_BAND_BYTES // ((w + 2 * pad) * c * np.dtype(dtype).itemsize) - 2 * pad)
+    out = np.empty_like(image)
     cx, cy = at(-(n - 1) / 2)  # centre the line on the pixel
-    arr, x0, y0 = total
-    ys, xs = pad + cy - y0, pad + cx - x0  # the frame's corner in `arr`
-    return cv2.convertScaleAbs(arr[ys:ys + h, xs:xs + w], alpha=1.0 / n)
+    for y in range(0, h, rows):
+        y1 = min(h, y + rows)
+        # rows y - pad .. y1 + pad, reflected at the frame's top and bottom only
+        top, bottom = max(0, y - pad), min(h, y1 + pad)
+        slab = cv2.copyMakeBorder(image[top:bottom], pad - (y - top), pad - (bottom - y1),
+                                  pad, pad, cv2.BORDER_REFLECT)
+        piece = (slab.astype(dtype), 0, 0)
+        total, start, m = None, 0, 1
+        while True:
+            if n & m:  # the next m taps, from tap `start` on
+                ox, oy = at(start)
+                moved = (piece[0], piece[1] - ox, piece[2] - oy)
+                total = moved if total is None else _sum_shifted(total, moved, (0, 0))
+                start += m
+            if 2 * m > n:
+                break
+            piece = _sum_shifted(piece, piece, at(m))
+            m *= 2
+        arr, x0, y0 = total
+        ys, xs = pad + cy - y0, pad + cx - x0  # the band's corner in `arr`
+        band = cv2.convertScaleAbs(arr[ys:ys + y1 - y, xs:xs + w], alpha=1.0 / n)
+        out[y:y1] = band.reshape(out[y:y1].shape)
+    return out
 
 
 def _sum_shifted(a: tuple, b: tuple, shift: tuple[int, int]) -> tuple:
