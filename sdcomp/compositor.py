@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .camera import CameraModel, CameraPose, camera_basis, pixel_rays, project
+from .camera import CameraModel, CameraPose, camera_basis, project
 from .config import GeneratorConfig
 from .poses import tilt_matrix
 from .scene import Scene, coast_wiggle
@@ -52,6 +52,7 @@ from .water import (
 )
 
 MASK_THRESHOLD = 0.5
+SPARKLE_MATRIX = np.array([[0.0, 0.0, 2.5 / 255.0 * 100.0, 35.0]] * 3, np.float32)
 GRID = 16  # pixels between samples of the smooth background terms
 BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
@@ -130,6 +131,11 @@ class Compositor:
                                        np.linspace(0, h, self.grid_h))
         r2 = ((self.gu - w / 2) ** 2 + (self.gv - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
         self.grid_r2 = r2.astype(np.float32)
+        # unit view rays of the grid in the camera frame (the world frame: times the basis)
+        m = self.model
+        d = np.stack([(self.gu - w / 2) / m.fx, (self.gv - h / 2) / m.fy,
+                      np.ones_like(self.gu)], axis=-1)
+        self.grid_rays = (d / np.linalg.norm(d, axis=-1, keepdims=True)).astype(np.float32)
         rng = np.random.default_rng([config.seed, 31337])
         nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
         noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
@@ -176,8 +182,8 @@ class Compositor:
         """Smooth terms of the background on the coarse grid (gh, gw): linear RGB radiance
         of the water and sky with the camera gain applied, the glint lobe and the floor's
         transmittance."""
-        model, pose = self.model, scene.camera
-        rays = pixel_rays(model, pose, self.gu, self.gv).astype(np.float32)  # (gh, gw, 3)
+        pose = scene.camera
+        rays = self.grid_rays @ camera_basis(pose.pitch, pose.heading).astype(np.float32)
         down = -rays[..., 2]
         hit = down > 1e-4
         cos_v = np.clip(down, 1e-4, 1.0)
@@ -246,9 +252,8 @@ class Compositor:
             glint_srgb = linear_to_srgb(np.clip(e["env"] + glint, 0, 1)) * 255.0 - env_srgb
             g = cv2.resize(np.clip(glint_srgb, 0, 255).astype(np.uint8), (w, h),
                            interpolation=cv2.INTER_LINEAR)
-            sparkle = cv2.convertScaleAbs(cv2.extractChannel(tex, 2), alpha=2.5 / 255.0 * 100.0,
-                                          beta=0.35 * 100.0)
-            sparkle = cv2.cvtColor(sparkle, cv2.COLOR_GRAY2RGB)
+            # 100 * (0.35 + 2.5 * sparkle / 255) in every channel
+            sparkle = cv2.transform(tex, SPARKLE_MATRIX)
             image = cv2.add(image, cv2.multiply(g, sparkle, scale=1 / 100.0))
         if float(e["t_floor"].max()) > 0.01:
             self._add_floor(image, scene, e)
