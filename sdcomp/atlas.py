@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 
 from . import __version__
+from .cli import prog
 from .coloredmesh import ColoredMesh
 from .errors import UserError, run_cli
 from .fileio import atomic_path, atomic_write_bytes
@@ -434,7 +435,7 @@ def write_contact_sheet(atlas: Atlas, path: str | Path) -> Path:
 # --------------------------------------------------------------------------- command line
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m sdcomp.atlas",
+    p = argparse.ArgumentParser(prog=prog("atlas"),
                                 description="Pre-render a mesh into a pose-indexed sprite atlas.")
     sub = p.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build (or reuse) the atlas of a mesh",

@@ -40,6 +40,19 @@ OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench
                                 "install a version of sdcomp that includes it"}
 
 
+_RUNNING: list[str] = []  # the subcommands running now through `sdcomp COMMAND`
+
+
+def prog(name: str) -> str:
+    """The program name for the usage line of command ``name``: ``sdcomp NAME`` when it runs
+    through the ``sdcomp`` command, else ``python -m MODULE`` (its module in
+    :data:`COMMANDS`)."""
+    if name in _RUNNING:
+        return f"sdcomp {name}"
+    module = COMMANDS[name][0]
+    return f"python -m {module.removesuffix('.cli')}"
+
+
 def usage() -> str:
     width = max(map(len, COMMANDS))
     lines = ["usage: sdcomp COMMAND [OPTIONS]   (sdcomp COMMAND --help for its options)", "",
@@ -79,7 +92,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args[0] == "--version":
         print(f"sdcomp {__version__}")
         return 0
-    return int(command(args[0])(args[1:]) or 0)
+    func = command(args[0])
+    _RUNNING.append(args[0])
+    try:
+        return int(func(args[1:]) or 0)
+    finally:
+        _RUNNING.pop()
 
 
 def run() -> None:

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 
+from .cli import prog
 from .config import CLUTTER_KINDS, PRESETS, GeneratorConfig, ObjectSpec, load_toml, preset
 from .errors import UserError, run_cli
 from .generator import DEFAULT_SPRITES
@@ -93,7 +94,7 @@ class _ObjectAction(argparse.Action):
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python -m sdcomp.generate",
+        prog=prog("generate"),
         description="Generate a synthetic drone-over-water detection dataset: images, "
                     "16-bit instance masks, COCO train/val annotations.",
         epilog="Random options take a value (30), a range (10-50, uniform) or a list "

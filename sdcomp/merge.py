@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from .cli import prog
 from .coco import read_journal
 from .config import GeneratorConfig
 from .errors import UserError, run_cli
@@ -195,7 +196,7 @@ def merge(folders: Sequence[str | Path], out: str | Path, *, overwrite: bool = F
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python -m sdcomp.merge",
+        prog=prog("merge"),
         description="Merge the folders of `python -m sdcomp.generate --shard K/N` runs into "
                     "one dataset, byte-identical to a single run of the same options.")
     p.add_argument("shards", nargs="+", metavar="DIR", help="the shard runs' --out folders")

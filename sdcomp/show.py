@@ -38,6 +38,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from .cli import prog
 from .errors import UserError, run_cli
 from .fileio import atomic_write_bytes
 from .pngio import decode_png16
@@ -409,7 +410,7 @@ def write_sheet(sheet: np.ndarray, path: str | Path) -> Path:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python -m sdcomp.show",
+        prog=prog("show"),
         description="Draw a contact sheet of a generated dataset: images with mask outlines, "
                     "boxes (one colour per category) and captions.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)

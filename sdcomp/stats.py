@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import prog
 from .coco import iter_records, read_journal
 from .errors import UserError, run_cli
 from .fileio import atomic_write_bytes
@@ -282,7 +283,7 @@ def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> b
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="sdcomp stats",
+        prog=prog("stats"),
         description="Statistics of a generated dataset: counts per category and split, "
                     "object sizes against the COCO small/medium/large bounds, altitude, "
                     "pitch, turbidity and water colour histograms, images with no objects. "

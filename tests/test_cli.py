@@ -184,3 +184,16 @@ def test_stats_errors(tmp_path, small_dataset):
     assert rc == 2 and ".png" in err
     rc, _, err = sdcomp(["stats", small_dataset, "--bins", "0"])
     assert rc == 2 and "--bins" in err
+
+
+@pytest.mark.parametrize("name", ["atlas", "generate", "show", "stats", "merge", "bench"])
+def test_usage_line_names_the_way_the_command_was_run(name):
+    """``sdcomp NAME --help`` says ``usage: sdcomp NAME``; the module run directly (``python
+    -m sdcomp.NAME``) names itself so."""
+    for run, want in ((lambda: cli.main([name, "--help"]), f"sdcomp {name}"),
+                      (lambda: cli.command(name)(["--help"]), f"python -m sdcomp.{name}")):
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf), pytest.raises(SystemExit) as exc:
+            run()
+        assert exc.value.code == 0 and buf.getvalue().startswith(f"usage: {want} ")
+    assert cli._RUNNING == []  # nothing left behind by either run

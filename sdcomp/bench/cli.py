@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import fields, replace
 from pathlib import Path
 
+from ..cli import prog
 from ..errors import UserError, run_cli
 from ..generator import DEFAULT_SPRITES
 from .detector import BACKBONES
@@ -84,7 +85,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m sdcomp.bench",
+    p = argparse.ArgumentParser(prog=prog("bench"),
                                 description="Train and score Faster R-CNN on sdcomp datasets: "
                                             "the SeaDroneSim paper's ablation grid.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
