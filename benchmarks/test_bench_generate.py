@@ -67,7 +67,7 @@ def test_bench_disk_416_two_workers(benchmark, default_generator, tmp_path):
 
 def test_bench_disk_full_resolution(benchmark, sprites_dir, tmp_path):
     """5472 x 3648 JPEG frames with masks and COCO, 2 workers."""
-    n = 12
+    n = 24
     config = GeneratorConfig(n=n, width=5472, height=3648)
     gen = Generator(config, sprites_dir, progress=False)
     _time_runs(benchmark, config, gen, tmp_path, rounds=1)

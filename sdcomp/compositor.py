@@ -54,6 +54,7 @@ from .water import (
 MASK_THRESHOLD = 0.5
 SPARKLE_MATRIX = np.array([[0.0, 0.0, 2.5 / 255.0 * 100.0, 35.0]] * 3, np.float32)
 GRID = 16  # pixels between samples of the smooth background terms
+ONE_THREAD_PIXELS = 512 * 512  # frames up to this size are drawn on one OpenCV thread
 BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
 BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
@@ -155,6 +156,19 @@ class Compositor:
 
     # ------------------------------------------------------------------ main entry
     def render(self, scene: Scene, amodal: bool = False) -> Frame:
+        """``scene`` rendered to a :class:`Frame`. Frames of up to
+        :data:`ONE_THREAD_PIXELS` are drawn with OpenCV on one thread (its thread pool costs
+        more than it gives on them); the process's thread count is restored after."""
+        threads = cv2.getNumThreads()
+        if threads == 1 or self.model.width * self.model.height > ONE_THREAD_PIXELS:
+            return self._render(scene, amodal)
+        cv2.setNumThreads(1)
+        try:
+            return self._render(scene, amodal)
+        finally:
+            cv2.setNumThreads(threads)
+
+    def _render(self, scene: Scene, amodal: bool) -> Frame:
         model, pose = self.model, scene.camera
         basis = camera_basis(pose.pitch, pose.heading)
         sun = sun_direction(scene.sun_elevation, scene.sun_azimuth)

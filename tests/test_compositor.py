@@ -525,3 +525,31 @@ def test_long_motion_blur_is_a_line_mean(n):
     got = _motion_blur(smooth, float(n), 33.0)
     change = np.abs(dense.astype(int) - smooth).mean()
     assert np.abs(got.astype(int) - dense).mean() < 0.3 * change  # taps up to ~2 px apart
+
+
+def test_small_frames_render_on_one_opencv_thread(rov, monkeypatch):
+    """A 416 px frame is drawn with OpenCV on one thread and the process's count comes
+    back afterwards, also when rendering fails; the pixels do not depend on it."""
+    seen = []
+    real = rov.compositor._render
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(2)
+
+        def spy(scene, amodal):
+            seen.append(cv2.getNumThreads())
+            return real(scene, amodal)
+
+        monkeypatch.setattr(rov.compositor, "_render", spy)
+        a = rov.compositor.render(rov.scene(3))
+        assert seen == [1] and cv2.getNumThreads() == 2
+        monkeypatch.setattr(rov.compositor, "_render", lambda *_: 1 / 0)
+        with pytest.raises(ZeroDivisionError):
+            rov.compositor.render(rov.scene(3))
+        assert cv2.getNumThreads() == 2
+        monkeypatch.setattr(rov.compositor, "_render", real)
+        cv2.setNumThreads(1)
+        b = rov.compositor.render(rov.scene(3))
+        assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
+    finally:
+        cv2.setNumThreads(before)
