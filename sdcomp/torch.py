@@ -32,6 +32,7 @@ This module is the only one in sdcomp that imports torch.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -79,9 +80,63 @@ def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[i
 
 
 def collate(batch: Sequence[tuple[torch.Tensor, Target]]) -> tuple[tuple, tuple]:
-    """DataLoader ``collate_fn`` for detection: ``(images, targets)`` as two tuples."""
+    """DataLoader ``collate_fn`` for detection: ``(images, targets)`` as two tuples.
+
+    The result is a :class:`Batch`: sent from a DataLoader worker, all its tensors travel
+    in one shared buffer per dtype instead of one each."""
     images, targets = zip(*batch, strict=True) if batch else ((), ())
-    return tuple(images), tuple(targets)
+    return Batch((tuple(images), tuple(targets)))
+
+
+class Batch(tuple):
+    """A collated ``(images, targets)`` that pickles its plain tensors packed: one 1-D
+    tensor per dtype, so a worker shares 3-4 buffers per batch with the main process instead
+    of about 6 per image (each costs the main process a socket round trip for its file
+    descriptor: about 2 ms of its CPU per image, which it takes from the workers on a small
+    machine). Unpickled it is a plain tuple whose tensors are views of those buffers.
+    Objects other than plain tensors (tv_tensors, numbers) are pickled as they are."""
+
+    def __reduce__(self):
+        tensors: dict[str, list[torch.Tensor]] = {}
+        skeleton = _hollow(tuple(self), tensors)
+        buffers = {key: torch.cat([t.reshape(-1) for t in ts]) for key, ts in tensors.items()}
+        return _fill_batch, (skeleton, buffers)
+
+
+class _Slot(tuple):
+    """Where a packed tensor goes: (dtype key, offset, shape)."""
+
+
+def _hollow(obj: Any, tensors: dict[str, list[torch.Tensor]]) -> Any:
+    """``obj`` with each plain tensor replaced by a :class:`_Slot` into ``tensors``."""
+    if type(obj) is torch.Tensor and not obj.requires_grad:
+        key = str(obj.dtype)
+        group = tensors.setdefault(key, [])
+        offset = sum(t.numel() for t in group)
+        group.append(obj)
+        return _Slot((key, offset, tuple(obj.shape)))
+    if type(obj) in (tuple, list):
+        return type(obj)(_hollow(o, tensors) for o in obj)
+    if type(obj) is dict:
+        return {k: _hollow(v, tensors) for k, v in obj.items()}
+    return obj
+
+
+def _fill(obj: Any, buffers: dict[str, torch.Tensor]) -> Any:
+    if type(obj) is _Slot:
+        key, offset, shape = obj
+        n = math.prod(shape)
+        return buffers[key][offset:offset + n].view(shape)
+    if type(obj) in (tuple, list):
+        return type(obj)(_fill(o, buffers) for o in obj)
+    if type(obj) is dict:
+        return {k: _fill(v, buffers) for k, v in obj.items()}
+    return obj
+
+
+def _fill_batch(skeleton: tuple, buffers: dict[str, torch.Tensor]) -> tuple:
+    """The unpickled :class:`Batch`: a plain ``(images, targets)`` of views of ``buffers``."""
+    return _fill(skeleton, buffers)
 
 
 def _check_length(length: int) -> int:
@@ -207,4 +262,4 @@ class GeneratedCoco(torch.utils.data.Dataset):
         return image, target
 
 
-__all__ = ["SyntheticDetection", "GeneratedCoco", "collate", "to_sample"]
+__all__ = ["SyntheticDetection", "GeneratedCoco", "Batch", "collate", "to_sample"]

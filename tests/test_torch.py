@@ -101,6 +101,42 @@ def test_dataloader_two_workers(dataset):
     assert all(same(seen[i], dataset[i]) for i in (0, 13, 29))
 
 
+class Marked(torch.Tensor):
+    """A tensor subclass (as torchvision's tv_tensors are)."""
+
+
+def test_batch_pickles_its_tensors_as_one_buffer_per_dtype(dataset):
+    """What a DataLoader worker sends: a collated batch arrives as a plain (images, targets)
+    tuple with the same values, its plain tensors views of one shared buffer per dtype;
+    tensor subclasses and tensors that need gradients travel as they are."""
+    import io
+    import pickle
+    from multiprocessing.reduction import ForkingPickler
+
+    import torch.multiprocessing  # noqa: F401  (torch's reductions for shared tensors)
+
+    items = [dataset[i] for i in (0, 13, 29)]
+    extra = {"marked": torch.ones(3).as_subclass(Marked),
+             "grad": torch.ones(2, requires_grad=True)}
+    items[1][1]["extra"] = extra
+    batch = collate(items)
+    buf = io.BytesIO()
+    ForkingPickler(buf, pickle.HIGHEST_PROTOCOL).dump(batch)
+    images, targets = out = pickle.loads(buf.getvalue())
+    assert type(out) is tuple and type(images) is tuple and type(targets) is tuple
+    def plain_target(t: dict) -> dict:
+        return {k: v for k, v in t.items() if k != "extra"}
+
+    assert all(same((gi, plain_target(gt)), (wi, plain_target(wt)))
+               for gi, gt, (wi, wt) in zip(images, targets, items, strict=True))
+    assert type(targets[1]["extra"]["marked"]) is Marked
+    assert targets[1]["extra"]["grad"].requires_grad
+    plain = [t for t in (*images, *(v for tg in targets for v in tg.values()))
+             if type(t) is torch.Tensor and not t.requires_grad]
+    storages = {t.untyped_storage().data_ptr() for t in plain}
+    assert len(storages) == len({t.dtype for t in plain}) < len(plain)
+
+
 def test_dataloader_spawned_workers_get_a_small_pickle(dataset):
     # spawn: the dataset reaches the workers pickled (config only); they build generators
     subset = torch.utils.data.Subset(dataset, [2, 17, 23])
