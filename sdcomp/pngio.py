@@ -63,7 +63,9 @@ def _buffers(rows: int, w: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _row_runs(mask: np.ndarray) -> list[tuple[int, int, bool]]:
     """Runs of rows of a 2-D ``mask``: (first row, end row, whether any value is nonzero)."""
-    has = np.count_nonzero(mask, axis=1) > 0
+    rows = max(1, BAND_BYTES // max(1, 2 * mask.shape[1]))  # bands: no mask-sized temporary
+    has = np.concatenate([np.count_nonzero(mask[y:y + rows], axis=1) > 0
+                          for y in range(0, mask.shape[0], rows)])
     edges = np.flatnonzero(has[1:] != has[:-1]) + 1
     bounds = [0, *edges.tolist(), mask.shape[0]]
     return [(y0, y1, bool(has[y0])) for y0, y1 in zip(bounds[:-1], bounds[1:], strict=True)]
