@@ -59,7 +59,7 @@ BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
 BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
 LINE_TAPS_MIN = 16  # motion blur this long or longer sums shifted frames (_line_mean)
-LINE_BAND_BYTES = 24 << 20  # _line_mean works in bands of rows of about this many bytes
+LINE_BAND_BYTES = 8 << 20  # _line_mean works in bands of rows of about this many bytes
 SUN = 2.2  # linear radiance of direct sunlight on a surface facing the sun
 HAZE_DISTANCE = 4000.0  # metres: visibility through the air (exponential haze)
 GLINT_GAIN = 0.014  # sun glint: Fresnel x sun/sky irradiance ratio / 4 / pi
@@ -657,8 +657,9 @@ def _line_mean(image: np.ndarray, n: int, angle: float) -> np.ndarray:
     binary digits: ``2 log2(n)`` whole-frame additions instead of ``n**2`` multiplications
     per pixel. Tap positions are rounded per piece, so a tap can sit up to about
     ``log2(n) / 2`` pixels off the exact line. The frame is done in bands of rows of about
-    :data:`LINE_BAND_BYTES` of sums: fresh frame-sized sums cost more in page faults than in
-    additions.
+    :data:`LINE_BAND_BYTES` of sums (at least ``8 n`` rows, so the rows a band shares with its
+    neighbours stay under a quarter): fresh frame-sized sums cost more in page faults than
+    in additions, and memory at the peak of a huge frame.
     """
     dx, dy = math.cos(math.radians(angle)), math.sin(math.radians(angle))
 
@@ -668,7 +669,8 @@ def _line_mean(image: np.ndarray, n: int, angle: float) -> np.ndarray:
     pad = n + 2
     h, w, c = image.shape[0], image.shape[1], (image.shape[2] if image.ndim == 3 else 1)
     dtype = np.uint16 if n <= 257 else np.int32
-    rows = max(1, LINE_BAND_BYTES // ((w + 2 * pad) * c * np.dtype(dtype).itemsize) - 2 * pad)
+    row_bytes = (w + 2 * pad) * c * np.dtype(dtype).itemsize
+    rows = max(LINE_BAND_BYTES // row_bytes - 2 * pad, 8 * pad)  # overlap at most 1/4
     out = np.empty_like(image)
     cx, cy = at(-(n - 1) / 2)  # centre the line on the pixel
     for y in range(0, h, rows):

@@ -553,3 +553,15 @@ def test_small_frames_render_on_one_opencv_thread(rov, monkeypatch):
         assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
     finally:
         cv2.setNumThreads(before)
+
+
+def test_line_mean_in_bands_equals_one_band(monkeypatch):
+    """Bands of rows (with the rows they share reflected only at the frame's edges) give
+    the same pixels as one band for the whole frame."""
+    import sdcomp.compositor as comp
+
+    image = np.random.default_rng(5).integers(0, 256, (300, 70, 3), dtype=np.uint8)
+    whole = comp._line_mean(image, 17, 63.0)
+    monkeypatch.setattr(comp, "LINE_BAND_BYTES", 1)  # bands of 8 n rows: 3 here
+    assert np.array_equal(comp._line_mean(image, 17, 63.0), whole)
+    assert np.array_equal(comp._line_mean(image[..., 0], 17, 63.0), whole[..., 0])
