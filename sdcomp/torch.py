@@ -97,9 +97,20 @@ class Batch(tuple):
     Objects other than plain tensors (tv_tensors, numbers) are pickled as they are."""
 
     def __reduce__(self):
-        tensors: dict[str, list[torch.Tensor]] = {}
-        skeleton = _hollow(tuple(self), tensors)
-        buffers = {key: torch.cat([t.reshape(-1) for t in ts]) for key, ts in tensors.items()}
+        groups: dict[str, list[torch.Tensor]] = {}
+        sizes: dict[str, int] = {}
+
+        def hollow(obj: Any) -> Any:  # a plain tensor -> a _Slot into `groups`
+            if type(obj) is not torch.Tensor or obj.requires_grad:
+                return obj
+            key = str(obj.dtype)
+            groups.setdefault(key, []).append(obj)
+            offset = sizes.get(key, 0)
+            sizes[key] = offset + obj.numel()
+            return _Slot((key, offset, tuple(obj.shape)))
+
+        skeleton = _walk(tuple(self), hollow)
+        buffers = {key: torch.cat([t.reshape(-1) for t in ts]) for key, ts in groups.items()}
         return _fill_batch, (skeleton, buffers)
 
 
@@ -107,36 +118,25 @@ class _Slot(tuple):
     """Where a packed tensor goes: (dtype key, offset, shape)."""
 
 
-def _hollow(obj: Any, tensors: dict[str, list[torch.Tensor]]) -> Any:
-    """``obj`` with each plain tensor replaced by a :class:`_Slot` into ``tensors``."""
-    if type(obj) is torch.Tensor and not obj.requires_grad:
-        key = str(obj.dtype)
-        group = tensors.setdefault(key, [])
-        offset = sum(t.numel() for t in group)
-        group.append(obj)
-        return _Slot((key, offset, tuple(obj.shape)))
+def _walk(obj: Any, leaf: Callable[[Any], Any]) -> Any:
+    """``obj`` rebuilt through its tuples, lists and dicts (exact types) with ``leaf``
+    applied to everything else."""
     if type(obj) in (tuple, list):
-        return type(obj)(_hollow(o, tensors) for o in obj)
+        return type(obj)(_walk(o, leaf) for o in obj)
     if type(obj) is dict:
-        return {k: _hollow(v, tensors) for k, v in obj.items()}
-    return obj
-
-
-def _fill(obj: Any, buffers: dict[str, torch.Tensor]) -> Any:
-    if type(obj) is _Slot:
-        key, offset, shape = obj
-        n = math.prod(shape)
-        return buffers[key][offset:offset + n].view(shape)
-    if type(obj) in (tuple, list):
-        return type(obj)(_fill(o, buffers) for o in obj)
-    if type(obj) is dict:
-        return {k: _fill(v, buffers) for k, v in obj.items()}
-    return obj
+        return {k: _walk(v, leaf) for k, v in obj.items()}
+    return leaf(obj)
 
 
 def _fill_batch(skeleton: tuple, buffers: dict[str, torch.Tensor]) -> tuple:
     """The unpickled :class:`Batch`: a plain ``(images, targets)`` of views of ``buffers``."""
-    return _fill(skeleton, buffers)
+    def fill(obj: Any) -> Any:
+        if type(obj) is not _Slot:
+            return obj
+        key, offset, shape = obj
+        return buffers[key][offset:offset + math.prod(shape)].view(shape)
+
+    return _walk(skeleton, fill)
 
 
 def _check_length(length: int) -> int:
