@@ -4,8 +4,6 @@ traced from the masks, images unchanged by the format options, resume, yolo-only
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 
@@ -16,21 +14,14 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sdcomp.errors import run_cli
-from sdcomp.generate import main
 from sdcomp.pngio import decode_png16
 from sdcomp.stats import dataset_stats
 from sdcomp.yolo import box_line, data_yaml, mask_polygon
 
+from .datasets import cli
+
 BASE = ["--n", "40", "--size", "96", "--clutter", "0", "--altitude", "3-6", "--count", "0-3",
         "--seed", "11", "--no-progress"]
-
-
-def cli(argv) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = run_cli(main, [str(a) for a in argv])
-    return rc, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")
@@ -124,16 +115,23 @@ def test_ultralytics_layout(datasets):
         assert (folder / "labels" / (Path(im["file_name"]).stem + ".txt")).read_bytes() == b""
 
 
-def test_boxes_agree_with_coco(datasets):
-    folder = datasets["boxes"]
+def matched_rows(folder: Path):
+    """Per image of ``folder``: its COCO entry and (label row, annotation) pairs in instance
+    order, checking that the label file has one row per annotation."""
     images, anns, _ = coco(folder)
-    n = 0
     for image_id, im in images.items():
         rows = labels(folder, im["file_name"])
         assert len(rows) == len(anns[image_id])
+        yield im, list(zip(rows, sorted(anns[image_id], key=lambda a: a["instance_id"]),
+                           strict=True))
+
+
+def test_boxes_agree_with_coco(datasets):
+    folder = datasets["boxes"]
+    n = 0
+    for im, pairs in matched_rows(folder):
         W, H = im["width"], im["height"]
-        for row, ann in zip(rows, sorted(anns[image_id], key=lambda a: a["instance_id"]),
-                            strict=True):
+        for row, ann in pairs:
             cls, cx, cy, w, h = row
             assert cls == ann["category_id"] - 1
             x, y, bw, bh = ann["bbox"]
@@ -146,15 +144,11 @@ def test_boxes_agree_with_coco(datasets):
 
 def test_polygons_agree_with_coco_and_masks(datasets):
     folder = datasets["seg"]
-    images, anns, _ = coco(folder)
     n = 0
-    for image_id, im in images.items():
-        rows = labels(folder, im["file_name"])
-        assert len(rows) == len(anns[image_id])
+    for im, pairs in matched_rows(folder):
         W, H = im["width"], im["height"]
         inst = decode_png16((folder / "masks" / im["mask_file"]).read_bytes())
-        for row, ann in zip(rows, sorted(anns[image_id], key=lambda a: a["instance_id"]),
-                            strict=True):
+        for row, ann in pairs:
             assert row[0] == ann["category_id"] - 1
             assert len(row) % 2 == 1 and len(row) >= 1 + 2 * 4
             poly = np.array(row[1:]).reshape(-1, 2) * [W, H]
