@@ -39,6 +39,14 @@ def cli(argv: list, entry=main) -> tuple[int, str, str]:
     return rc, out.getvalue(), err.getvalue()
 
 
+def generate(base: list, out: Path, sprites: Path, *extra, workers: int = 1
+             ) -> tuple[int, str, str]:
+    """One generator run of flags ``base`` then ``extra`` (later flags win) into ``out``,
+    without a progress bar: (exit status, stdout, stderr)."""
+    return cli([*base, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
+                "--no-progress"])
+
+
 def popen(code: str, argv: list) -> subprocess.Popen:
     """``python -c code argv...`` in its own session (so its workers can be killed with it)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(

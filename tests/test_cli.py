@@ -19,7 +19,8 @@ import tomllib
 
 from sdcomp import atlas, cli, generate, merge, show, stats
 from sdcomp.config import GeneratorConfig
-from sdcomp.errors import run_cli
+
+from .datasets import cli as run_in_process
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL = ["--n", "24", "--size", "96", "--clutter", "0", "--altitude", "3-6", "--count", "0-2",
@@ -28,10 +29,7 @@ SMALL = ["--n", "24", "--size", "96", "--clutter", "0", "--altitude", "3-6", "--
 
 def sdcomp(argv) -> tuple[int, str, str]:
     """``sdcomp ARGV`` in this process: (exit status, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = run_cli(cli.main, [str(a) for a in argv])
-    return rc, out.getvalue(), err.getvalue()
+    return run_in_process(argv, cli.main)
 
 
 def option_entries(parser) -> list[str]:

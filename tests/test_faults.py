@@ -24,7 +24,15 @@ import pytest
 from sdcomp import coco, writer
 from sdcomp.coco import Journal, read_journal
 
-from .datasets import CLI, assert_identical, check_intact, cli, finish, one_line_error, popen
+from .datasets import (
+    CLI,
+    assert_identical,
+    check_intact,
+    finish,
+    generate,
+    one_line_error,
+    popen,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
@@ -34,8 +42,7 @@ BASE = ["--n", "120", "--size", "48", "--clutter", "0", "--altitude", "3-6", "--
 
 
 def gen(out: Path, sprites: Path, *extra, workers: int = 2) -> tuple[int, str, str]:
-    return cli([*BASE, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
-                "--no-progress"])
+    return generate(BASE, out, sprites, *extra, workers=workers)
 
 
 @pytest.fixture(scope="module")

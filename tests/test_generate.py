@@ -29,9 +29,10 @@ from pycocotools.cocoeval import COCOeval
 import sdcomp
 from sdcomp import writer
 from sdcomp.config import GeneratorConfig
-from sdcomp.errors import run_cli
 from sdcomp.generate import build_parser, main
 from sdcomp.writer import split_of
+
+from .datasets import cli, generate
 
 # pycocotools' own decode under numpy 2 warns about __array__(copy=...); not ours
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
@@ -50,18 +51,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 # --------------------------------------------------------------------------- helpers
 
-def cli(argv: list[str]) -> tuple[int, str, str]:
-    """Run the generator's command line in this process: (exit status, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = run_cli(main, [str(a) for a in argv])
-    return rc, out.getvalue(), err.getvalue()
-
-
 def gen(out: Path, sprites: Path, *extra, base=BASE, workers: int = 1) -> tuple[int, str, str]:
     """One generator run into ``out`` (flags later in the list win over earlier ones)."""
-    return cli([*base, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
-                "--no-progress"])
+    return generate(base, out, sprites, *extra, workers=workers)
 
 
 def python(code: str, argv: list, timeout: float) -> tuple[int, str, str]:

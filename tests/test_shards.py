@@ -17,7 +17,7 @@ from sdcomp import merge as merge_mod
 from sdcomp import writer
 from sdcomp.shards import parse_shard, shard_folder, shard_range
 
-from .datasets import assert_identical, check_intact, cli, files, one_line_error
+from .datasets import assert_identical, check_intact, cli, files, generate, one_line_error
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
@@ -26,8 +26,7 @@ BASE = ["--n", "40", "--size", "64", "--clutter", "0", "--altitude", "3-6", "--c
 
 
 def gen(out: Path, sprites: Path, *extra, workers: int = 1) -> tuple[int, str, str]:
-    return cli([*BASE, *extra, "--out", out, "--sprites", sprites, "--workers", workers,
-                "--no-progress"])
+    return generate(BASE, out, sprites, *extra, workers=workers)
 
 
 def merge(*argv) -> tuple[int, str, str]:
