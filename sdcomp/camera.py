@@ -114,8 +114,8 @@ def camera_basis(pitch: float, heading: float) -> np.ndarray:
     p, h = math.radians(pitch), math.radians(heading)
     forward = np.array([math.cos(p) * math.cos(h), math.cos(p) * math.sin(h), -math.sin(p)])
     right = np.array([math.sin(h), -math.cos(h), 0.0])
-    down = np.cross(forward, right)
-    return np.stack([right, down, forward])
+    down = np.array([-math.sin(p) * math.cos(h), -math.sin(p) * math.sin(h), -math.cos(p)])
+    return np.stack([right, down, forward])  # down = forward x right, written out
 
 
 @dataclass(frozen=True)

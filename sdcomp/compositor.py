@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -42,6 +43,7 @@ from .scene import Scene, coast_wiggle
 from .shading import linear_to_srgb, srgb_to_linear, sun_direction
 from .sprites import SpriteSource
 from .water import (
+    _SKY_HORIZON,
     REFRACTIVE_INDEX,
     SLOPE_SCALE,
     Texture,
@@ -54,6 +56,9 @@ from .water import (
 MASK_THRESHOLD = 0.5
 SPARKLE_MATRIX = np.array([[0.0, 0.0, 2.5 / 255.0 * 100.0, 35.0]] * 3, np.float32)
 GRID = 16  # pixels between samples of the smooth background terms
+REDUCE_MAX = 8  # nadir water is drawn up to this many times smaller when its texture allows
+REDUCE_MIN_SIZE = 16  # pixels: a reduced water background is at least this wide and high
+FLOOR_VISIBLE = 0.01  # floor detail is drawn where its transmittance reaches this
 ONE_THREAD_PIXELS = 512 * 512  # frames up to this size are drawn on one OpenCV thread
 BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
@@ -82,6 +87,19 @@ class Layer:
     shadow_offset: tuple[float, float]
     shadow_strength: float
     shadow_blur: float
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Per-image quantities every stage uses (see :func:`lighting`)."""
+
+    basis: np.ndarray  # (3, 3) float64 camera rows right, down, forward (world frame)
+    sun: np.ndarray  # (3,) float64 unit vector towards the sun (world frame)
+    wb: np.ndarray  # (3,) float32 camera gain per channel: white balance x exposure
+    water_lin: np.ndarray  # (3,) float32 linear RGB of the water colour
+    light: float  # irradiance on the surface (ambient + sun), linear
+    body: np.ndarray  # (3,) float32 radiance of the water body, linear
+    cos_sun_t: float  # cosine of the refracted sun angle under water
 
 
 @dataclass
@@ -116,7 +134,8 @@ class Compositor:
 
     def __init__(self, config: GeneratorConfig, objects: list[SpriteSource],
                  clutter: list[SpriteSource], waves: list[Texture], floor: Texture,
-                 land: Texture, backgrounds=None, model: CameraModel | None = None):
+                 land: Texture, backgrounds=None, model: CameraModel | None = None,
+                 grid: int = GRID):
         self.config = config
         self.model: CameraModel = model or config.camera_model()
         self.objects = objects
@@ -126,8 +145,8 @@ class Compositor:
         self.land = land
         self.backgrounds = backgrounds
         w, h = self.model.width, self.model.height
-        self.grid_w = max(2, math.ceil(w / GRID) + 1)
-        self.grid_h = max(2, math.ceil(h / GRID) + 1)
+        self.grid_w = max(2, math.ceil(w / grid) + 1)
+        self.grid_h = max(2, math.ceil(h / grid) + 1)
         self.gu, self.gv = np.meshgrid(np.linspace(0, w, self.grid_w),
                                        np.linspace(0, h, self.grid_h))
         r2 = ((self.gu - w / 2) ** 2 + (self.gv - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
@@ -137,11 +156,7 @@ class Compositor:
         d = np.stack([(self.gu - w / 2) / m.fx, (self.gv - h / 2) / m.fy,
                       np.ones_like(self.gu)], axis=-1)
         self.grid_rays = (d / np.linalg.norm(d, axis=-1, keepdims=True)).astype(np.float32)
-        rng = np.random.default_rng([config.seed, 31337])
-        nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
-        noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
-        # one tile; frames larger than it get it added block by block (_add_noise)
-        self.noise = np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
+        self._smaller: dict[int, Compositor] = {}  # _reduced(f), made on first use
         # large frames: the background (smooth light, textures magnified from their
         # few-centimetre pitch) is drawn at most BACKGROUND_MAX wide and resized
         self._bg = self
@@ -153,6 +168,59 @@ class Compositor:
             self._bg = Compositor(config, objects, clutter, waves, floor, land, backgrounds,
                                   model=small)
         self.floor_mean = srgb_to_linear(floor.mean / 255.0)
+
+    @cached_property
+    def noise(self) -> np.ndarray:
+        """The sensor-noise tile (nh, nw, 3) uint8, 128 + NOISE_SCALE x N(0, 1), a function
+        of the seed; frames larger than it get it added block by block (_add_noise)."""
+        h, w = self.model.height, self.model.width
+        rng = np.random.default_rng([self.config.seed, 31337])
+        nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
+        noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
+        return np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
+
+    def _reduction(self, scene: Scene, lit: Lighting) -> int:
+        """How many times smaller (1, 2, 4 or 8) the water of ``scene`` can be drawn and
+        then magnified without losing detail: the largest power of two, at most
+        :data:`REDUCE_MAX`, by which the wave texture and the visible sea floor are already
+        magnified at this frame's size (their texels cover at least that many pixels).
+        Only straight-down views (oblique ones sample the textures per pixel) of water
+        (not the user's photos)."""
+        pose, m = scene.camera, self.model
+        if self.backgrounds is not None or pose.pitch < 89.999:
+            return 1
+        textures = [(self.waves[0], pose.altitude)]
+        if self._floor_visible(scene, lit):
+            textures.append((self.floor, pose.altitude + scene.floor_depth / REFRACTIVE_INDEX))
+        f = REDUCE_MAX
+        for tex, altitude in textures:
+            gx, gy = m.nadir_gsd(altitude)
+            _, cw, ch = tex.crop_size(gx * m.width, gy * m.height, m.width)
+            magnified = min(m.width / cw, m.height / ch)
+            while f > 1 and f > magnified:
+                f //= 2
+        while f > 1 and min(m.width, m.height) < REDUCE_MIN_SIZE * f:
+            f //= 2
+        return f
+
+    def _reduced(self, f: int) -> Compositor:
+        """A compositor of this one's camera with a frame ``f`` times smaller (the same
+        number of grid samples)."""
+        if f not in self._smaller:
+            m = self.model
+            small = CameraModel(m.sensor_width, m.sensor_height, m.diagonal_fov,
+                                max(1, round(m.width / f)), max(1, round(m.height / f)))
+            self._smaller[f] = Compositor(self.config, self.objects, self.clutter, self.waves,
+                                          self.floor, self.land, self.backgrounds,
+                                          model=small, grid=max(1, GRID // f))
+        return self._smaller[f]
+
+    @staticmethod
+    def _floor_visible(scene: Scene, lit: Lighting) -> bool:
+        """Whether the floor's transmittance straight down reaches FLOOR_VISIBLE (it is
+        highest there: the shortest path through the water)."""
+        path = 1.0 + 1.0 / lit.cos_sun_t
+        return math.exp(-scene.attenuation * scene.floor_depth * path) >= FLOOR_VISIBLE
 
     # ------------------------------------------------------------------ main entry
     def render(self, scene: Scene, amodal: bool = False) -> Frame:
@@ -170,17 +238,14 @@ class Compositor:
 
     def _render(self, scene: Scene, amodal: bool) -> Frame:
         model, pose = self.model, scene.camera
-        basis = camera_basis(pose.pitch, pose.heading)
-        sun = sun_direction(scene.sun_elevation, scene.sun_azimuth)
-        ev = 2.0 ** scene.effects.exposure
-        wb = np.asarray(scene.effects.white_balance, np.float32) * ev
+        lit = lighting(scene)
         rng = np.random.default_rng([scene.texture_seed, 1])
 
-        image = self._bg._background(scene, sun, wb, rng)
+        image = self._bg._background(scene, lit, rng)
         if self._bg is not self:
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
-        layers = self._layers(scene, basis, sun, wb)
+        layers = self._layers(scene, lit)
         if self.config.shadows:
             for layer in layers:
                 _shadow(image, layer)
@@ -192,53 +257,80 @@ class Compositor:
         return Frame(out, instances, objects, dropped, scene, gsd)
 
     # ------------------------------------------------------------------ background
-    def _environment(self, scene: Scene, sun, wb) -> dict:
+    def _environment(self, scene: Scene, lit: Lighting) -> dict:
         """Smooth terms of the background on the coarse grid (gh, gw): linear RGB radiance
         of the water and sky with the camera gain applied, the glint lobe and the floor's
         transmittance."""
         pose = scene.camera
-        rays = self.grid_rays @ camera_basis(pose.pitch, pose.heading).astype(np.float32)
+        rays = self.grid_rays @ lit.basis.astype(np.float32)
         down = -rays[..., 2]
         hit = down > 1e-4
-        cos_v = np.clip(down, 1e-4, 1.0)
+        all_hit = bool(hit.all())
+        cos_v = np.minimum(np.maximum(down, 1e-4), 1.0)
         c = scene.attenuation
-        water_lin, light, body, cos_sun_t = _water_light(scene, sun)
-        tint = water_lin / max(float(water_lin.max()), 1e-3)
-        path = 1.0 / refracted_cos(cos_v) + 1.0 / cos_sun_t
-        t_floor = np.exp(-c * scene.floor_depth * path)[..., None]  # (gh, gw, 1)
+        light, sun = lit.light, lit.sun
+        tint = lit.water_lin / max(float(lit.water_lin.max()), 1e-3)
+        path = 1.0 / refracted_cos(cos_v) + 1.0 / lit.cos_sun_t
+        t_floor = np.exp(path * np.float32(-c * scene.floor_depth))[..., None]  # (gh, gw, 1)
         floor_lin = self.floor_mean * tint * light * FLOOR_LIGHT
         reflect = fresnel(cos_v)[..., None]
-        sky_refl = sky_linear(cos_v) * (0.55 + 0.45 * light / (0.4 + SUN * 0.55))
-        water = (1 - reflect) * (body * (1 - t_floor) + floor_lin * t_floor) \
-            + reflect * sky_refl
+        sky_refl = sky_linear(cos_v) * np.float32(0.55 + 0.45 * light / (0.4 + SUN * 0.55))
+        # (1 - R) (body (1 - T) + floor T) + R sky, with R, T per grid point
+        water = lit.body + (floor_lin - lit.body) * t_floor
+        water += (sky_refl - water) * reflect
         # sun glint: Cox-Munk slope distribution of the facets that mirror the sun
         sigma2 = slope_variance(scene.wind)
-        half = -rays + sun.astype(np.float32)
-        half /= np.linalg.norm(half, axis=-1, keepdims=True)
-        tan2 = (half[..., 0] ** 2 + half[..., 1] ** 2) / np.maximum(half[..., 2] ** 2, 1e-6)
-        glint = GLINT_GAIN * np.exp(-tan2 / sigma2) / sigma2 * float(sun[2] > 0.02) * hit
-        dist = np.where(hit, pose.altitude / cos_v, 1e9).astype(np.float32)
-        haze = (1.0 - np.exp(-dist / HAZE_DISTANCE))[..., None]
-        horizon = np.asarray(sky_linear(0.0), np.float32)
-        water = water * (1 - haze) + horizon * haze
-        gain = (1.0 - scene.effects.vignetting * self.grid_r2)[..., None] * wb
-        sky = sky_linear(np.clip(rays[..., 2], 0, 1))
-        env = np.where(hit[..., None], water, sky) * gain
+        half = sun.astype(np.float32) - rays
+        sq = np.square(half)
+        tan2 = (sq[..., 0] + sq[..., 1]) / np.maximum(sq[..., 2], 1e-6)  # of the half vector
+        glint = np.exp(tan2 * np.float32(-1.0 / sigma2))
+        glint *= np.float32(GLINT_GAIN / sigma2 * float(sun[2] > 0.02))
+        dist = pose.altitude / cos_v
+        if not all_hit:
+            glint *= hit
+            dist = np.where(hit, dist, 1e9).astype(np.float32)
+        haze = (1.0 - np.exp(dist * np.float32(-1.0 / HAZE_DISTANCE)))[..., None]
+        water += (_SKY_HORIZON - water) * haze
+        gain = (1.0 - scene.effects.vignetting * self.grid_r2)[..., None] * lit.wb
+        if all_hit:
+            env = water * gain
+        else:
+            sky = sky_linear(rays[..., 2])
+            env = np.where(hit[..., None], water, sky) * gain
         return {"env": env, "glint": glint[..., None] * (1 - haze) * gain,
                 "t_floor": t_floor, "gain": gain, "hit": hit, "tint": tint, "light": light}
 
-    def _background(self, scene: Scene, sun, wb, rng) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB background (see the module docstring)."""
+    def _background(self, scene: Scene, lit: Lighting, rng) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB background (see the module docstring): the user's photo,
+        or the water, drawn :meth:`_reduction` times smaller and magnified, with land and
+        sky drawn on it at full size."""
+        model = self.model
+        w, h = model.width, model.height
+        f = self._reduction(scene, lit)
+        image, e = (self if f == 1 else self._reduced(f))._water(scene, lit, rng)
+        if self.backgrounds is not None:
+            return image
+        if f > 1:
+            image = cv2.resize(image, (w, h), interpolation=cv2.INTER_LINEAR)
+        if scene.shore is not None:
+            self._add_land(image, scene, e["gain"])
+        if not e["hit"].all():
+            self._add_sky(image, scene, e["gain"])
+        return image
+
+    def _water(self, scene: Scene, lit: Lighting, rng) -> tuple[np.ndarray, dict]:
+        """(H, W, 3) uint8 sRGB water (or the user's photo) at this compositor's size, and
+        the smooth terms it was drawn with (:meth:`_environment`)."""
         model, pose = self.model, scene.camera
         w, h = model.width, model.height
-        e = self._environment(scene, sun, wb)
+        e = self._environment(scene, lit)
         if self.backgrounds is not None:
             photo = self.backgrounds.pick(scene.texture_seed, w, h)
             gain = linear_to_srgb(np.clip(e["gain"] * 0.5, 0, 1)) * 255.0 / (
                 linear_to_srgb(np.float32(0.5)) * 255.0)
             g = cv2.resize(np.clip(gain * 128.0, 0, 255).astype(np.uint8), (w, h),
                            interpolation=cv2.INTER_LINEAR)
-            return cv2.multiply(photo, g, scale=1.0 / 128.0)
+            return cv2.multiply(photo, g, scale=1.0 / 128.0), e
         env_srgb = linear_to_srgb(e["env"]) * 255.0  # (gh, gw, 3)
         # one pass over the wave texture: E * (1 + amp * slope . g) + whitecaps, with E the
         # brightest background colour; then the smooth map 2 * env / E corrects it per pixel
@@ -269,13 +361,9 @@ class Compositor:
             # 100 * (0.35 + 2.5 * sparkle / 255) in every channel
             sparkle = cv2.transform(tex, SPARKLE_MATRIX)
             image = cv2.add(image, cv2.multiply(g, sparkle, scale=1 / 100.0))
-        if float(e["t_floor"].max()) > 0.01:
+        if float(e["t_floor"].max()) >= FLOOR_VISIBLE:
             self._add_floor(image, scene, e)
-        if scene.shore is not None:
-            self._add_land(image, scene, e["gain"])
-        if not e["hit"].all():
-            self._add_sky(image, scene, e["gain"])
-        return image
+        return image, e
 
     def _wave_view(self, scene: Scene, rng) -> np.ndarray:
         model, pose = self.model, scene.camera
@@ -423,20 +511,19 @@ class Compositor:
             image[:] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
     # ------------------------------------------------------------------ layers
-    def _layers(self, scene: Scene, basis, sun, wb) -> list[Layer]:
+    def _layers(self, scene: Scene, lit: Lighting) -> list[Layer]:
         cam = scene.camera.position
         layers = []
-        _, _, body, cos_sun_t = _water_light(scene, sun)
         for i, pl in enumerate(scene.placements):
             src = (self.objects if pl.kind == "object" else self.clutter)[pl.model]
-            layer = self._layer(i, pl, src, scene, basis, cam, sun, wb, body, cos_sun_t)
+            layer = self._layer(i, pl, src, scene, lit, cam)
             if layer is not None:
                 layers.append(layer)
         layers.sort(key=lambda lay: -lay.depth)  # far first
         return layers
 
-    def _layer(self, i, pl, src: SpriteSource, scene, basis, cam, sun, wb, body, cos_sun_t):
-        model = self.model
+    def _layer(self, i, pl, src: SpriteSource, scene, lit: Lighting, cam):
+        model, basis, sun, cos_sun_t = self.model, lit.basis, lit.sun, lit.cos_sun_t
         hd = math.radians(pl.heading)
         rz = np.array([[math.cos(hd), -math.sin(hd), 0], [math.sin(hd), math.cos(hd), 0],
                        [0, 0, 1]])
@@ -480,13 +567,13 @@ class Compositor:
         if x1 <= x0 or y1 <= y0:
             return None
         prepared = src.prepared(pose_i, level)
+        height = prepared[3]
         if pl.roll or pl.pitch:
-            prepared = _tilted_heights(prepared, vb, src, level, pl)
+            height = _tilted_heights(height, vb, src, level, pl)
         # channels: premultiplied sRGB colour (3), coverage, weight
         stack = np.empty(prepared[0].shape + (5,), np.float32)
         stack[..., 3] = prepared[0]
-        self._shade(stack, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
-                    u0, v0)
+        self._shade(stack, prepared, height, vb, rot, d_world, pl, scene, lit, u0, v0)
         m = np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32)
         warped = cv2.warpAffine(stack, m, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -509,35 +596,43 @@ class Compositor:
                      warped[..., 3], warped[..., 4], (float(off[0]), float(off[1])),
                      float(strength), blur)
 
-    def _shade(self, out, prepared, vb, rot, sun, d_world, pl, scene, wb, body, cos_sun_t,
+    def _shade(self, out, prepared, height, vb, rot, d_world, pl, scene, lit: Lighting,
                u0, v0) -> None:
         """Write the relit, submerged, premultiplied sRGB colour (0..255) of ``prepared`` to
         ``out[..., :3]`` and its weight (coverage x water transmittance) to ``out[..., 4]``
-        (``out``: (n, n, 5) float32)."""
-        alpha, albedo, normal, height, lowest = prepared
+        (``out``: (n, n, 5) float32; ``height``: (n, n) float32 metres above the sea level
+        of the floating body).
+
+        In linear RGB, with ``t`` the water's transmittance down to a pixel and back and
+        ``r`` the Fresnel reflectance toward the camera, a dry pixel is ``albedo x light``
+        and a submerged one ``(albedo x light x t + body x (1 - t)) x (1 - r) + sky x r``;
+        both are ``albedo x light x t x (1 - r u) + body x (1 - r) x (1 - t) + sky x r u``
+        with ``u`` 1 under water and 0 above (where ``t`` is 1), all times the camera gain.
+        """
+        alpha, albedo, normal = prepared[:3]
+        sun, wb, body = lit.sun, lit.wb, lit.body
         sun_view = (vb @ (rot.T @ sun)).astype(np.float32)
-        lambert = normal @ sun_view
-        np.maximum(lambert, 0.0, out=lambert)
-        light = scene.ambient + (SUN * 0.5 * float(sun[2] > 0)) * lambert
+        light = normal @ sun_view
+        np.maximum(light, 0.0, out=light)
+        light *= np.float32(SUN * 0.5 * float(sun[2] > 0))
+        light += np.float32(scene.ambient)
         w, h = self.model.width, self.model.height
         r2 = ((u0 - w / 2) ** 2 + (v0 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
-        gain = wb * (1.0 - scene.effects.vignetting * min(r2, 1.0))
-        tint = np.asarray(pl.tint, np.float32)
-        if pl.draft > lowest:  # some of it is under water
-            lin = albedo * tint * light[..., None]
-            depth = np.maximum(pl.draft - height, 0.0)  # metres under the surface
-            cz = float(d_world[2])
-            cos_t = float(refracted_cos(cz))
-            trans = np.exp(-scene.attenuation * (1.0 / cos_t + 1.0 / cos_sun_t) * depth)
-            trans = trans.astype(np.float32)
-            r = float(fresnel(cz))
-            t3 = trans[..., None]
-            submerged = (lin * t3 + body * (1 - t3)) * (1 - r) + sky_linear(cz) * r
-            lin = np.where((depth > 0)[..., None], submerged, lin) * gain
-            np.multiply(alpha, trans, out=out[..., 4])
-        else:
-            lin = albedo * (light[..., None] * (tint * gain))
-            out[..., 4] = alpha
+        gain = wb * np.float32(1.0 - scene.effects.vignetting * min(r2, 1.0))
+        cz = float(d_world[2])
+        r = float(fresnel(cz))
+        k = scene.attenuation * (1.0 / float(refracted_cos(cz)) + 1.0 / lit.cos_sun_t)
+        depth = np.subtract(np.float32(pl.draft), height)  # metres under the surface
+        np.maximum(depth, 0.0, out=depth)
+        under = depth > 0
+        trans = np.exp(depth * np.float32(-k))
+        np.multiply(alpha, trans, out=out[..., 4])
+        light *= trans
+        light *= 1.0 - np.float32(r) * under
+        lin = albedo * (np.asarray(pl.tint, np.float32) * gain)
+        lin *= light[..., None]
+        lin += (1.0 - trans)[..., None] * (body * gain * np.float32(1.0 - r))
+        lin += under[..., None] * (sky_linear(cz) * gain * np.float32(r))
         np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
 
     # ------------------------------------------------------------------ masks
@@ -723,20 +818,19 @@ def _motion_kernel(length: float, angle: float) -> np.ndarray:
     return kernel / kernel.sum()
 
 
-def _tilted_heights(prepared: tuple, vb: np.ndarray, src: SpriteSource, level: int,
-                    pl) -> tuple:
-    """``prepared`` with heights above the sea of the body tilted by the placement's roll
-    and pitch (the atlas stores heights of the level body).
+def _tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level: int,
+                    pl) -> np.ndarray:
+    """(n, n) float32 heights above the sea of the body tilted by the placement's roll and
+    pitch, from the level body's ``height`` (n, n) float32 of a sprite of mip ``level``.
 
     A pixel at sprite position (x right, y up, metres from the body origin) with level
     height ``h`` is the body-frame point ``p = x r + y u + d t`` (``vb`` rows r, u, t:
     right, up, toward) whose z is ``h + waterline``, so ``d = (h + wl - x r_z - y u_z) /
     t_z``. Its tilted height about the waterline point is ``row . p - wl row_z`` with
     ``row`` the tilt matrix's last row: linear in (x, y, h), computed as
-    ``h * k + plane(x, y)``.
+    ``h * k + plane(x, y)``. (Uncovered pixels get a height too; they have no colour.)
     """
-    alpha, albedo, normal, height, _ = prepared
-    n = alpha.shape[0]
+    n = height.shape[0]
     pitch_m = src.metres_per_pixel * (1 << level)
     c = (np.arange(n, dtype=np.float32) + np.float32(0.5 - n / 2)) * np.float32(pitch_m)
     wl = src.waterline
@@ -747,22 +841,25 @@ def _tilted_heights(prepared: tuple, vb: np.ndarray, src: SpriteSource, level: i
     ky = float(u_ @ row) - k * float(u_[2])
     const = k * wl - wl * float(row[2])
     # x = c along columns, y = -c along rows
-    plane = (c * np.float32(kx))[None, :] + (c * np.float32(-ky) + np.float32(const))[:, None]
-    tilted = height * np.float32(k) + plane
-    covered = alpha > 1e-6
-    tilted[~covered] = 0.0
-    lowest = float(tilted[covered].min()) if covered.any() else 0.0
-    return alpha, albedo, normal, tilted, lowest
+    tilted = height * np.float32(k)
+    tilted += (c * np.float32(kx))[None, :]
+    tilted += (c * np.float32(-ky) + np.float32(const))[:, None]
+    return tilted
 
 
-def _water_light(scene: Scene, sun: np.ndarray) -> tuple:
-    """(water colour linear (3,), light on the surface, water body radiance (3,) -- brighter
-    and more opaque with turbidity --, cosine of the refracted sun angle under water)."""
+def lighting(scene: Scene) -> Lighting:
+    """The camera basis, sun, camera gain and water light of ``scene``: the water body's
+    radiance grows brighter and more opaque with turbidity."""
+    pose = scene.camera
+    sun = sun_direction(scene.sun_elevation, scene.sun_azimuth)
+    wb = np.asarray(scene.effects.white_balance, np.float32) * np.float32(
+        2.0 ** scene.effects.exposure)
     water_lin = srgb_to_linear(np.asarray(scene.water_rgb, np.float32) / 255.0)
-    light = scene.ambient + SUN * max(sun[2], 0.0) * 0.55
-    body = water_lin * (0.45 + 0.55 * scene.turbidity) * light
-    cos_sun_t = float(refracted_cos(max(sun[2], 0.05)))
-    return water_lin, light, body, cos_sun_t
+    light = scene.ambient + SUN * max(float(sun[2]), 0.0) * 0.55
+    body = water_lin * np.float32((0.45 + 0.55 * scene.turbidity) * light)
+    cos_sun_t = float(refracted_cos(max(float(sun[2]), 0.05)))
+    return Lighting(camera_basis(pose.pitch, pose.heading), sun, wb, water_lin, light, body,
+                    cos_sun_t)
 
 
 def _centre_gsd(model: CameraModel, pose) -> float:
@@ -779,7 +876,7 @@ def _shadow(image: np.ndarray, layer: Layer) -> None:
     x0, y0, x1, y1 = layer.roi
     h, w = image.shape[:2]
     pad = int(math.ceil(2 * layer.shadow_blur)) + 1
-    a = np.pad(layer.alpha, pad)
+    a = cv2.copyMakeBorder(layer.alpha, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
     if layer.shadow_blur > 0.3:
         a = cv2.GaussianBlur(a, (0, 0), layer.shadow_blur)
     ox, oy = layer.shadow_offset

@@ -104,7 +104,8 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     water = config.water[min(int(rng.random() * len(config.water)), len(config.water) - 1)]
     name, rgb = parse_water(water)
     jitter = rng.uniform(0.92, 1.08, 3)
-    rgb = tuple(int(np.clip(round(c * j), 0, 255)) for c, j in zip(rgb, jitter, strict=True))
+    rgb = tuple(min(max(round(c * j), 0), 255) for c, j in zip(rgb, jitter.tolist(),
+                                                                strict=True))
     turbidity = config.turbidity.sample(rng)
     wind = config.wind.sample(rng)
     swell = rng.uniform(0, 360)

@@ -18,7 +18,7 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 def linear_to_srgb(c: np.ndarray) -> np.ndarray:
     """Linear RGB in [0, 1] (any shape, float) to sRGB in [0, 1] (clipped)."""
-    c = np.clip(np.asarray(c, dtype=np.float32), 0.0, 1.0)
+    c = np.minimum(np.maximum(np.asarray(c, dtype=np.float32), 0.0), 1.0)
     return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
 
 

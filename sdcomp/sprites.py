@@ -66,8 +66,8 @@ class SpriteSource:
         return out
 
     def prepared(self, pose: int, level: int) -> tuple:
-        """(alpha (n, n), albedo linear (n, n, 3), unit normal (n, n, 3), height (n, n),
-        lowest height) of a level, un-premultiplied, for relighting; cached with it."""
+        """(alpha (n, n), albedo linear (n, n, 3), unit normal (n, n, 3), height (n, n))
+        float32 of a level, un-premultiplied, for relighting; cached with it."""
         key = (pose, level, "p")
         cache = self._small if level >= 2 else self._large
         hit = cache.get(key)
@@ -81,8 +81,7 @@ class SpriteSource:
         length = np.sqrt(np.einsum("ijk,ijk->ij", normal, normal)) + 1e-6
         normal = (normal / length[..., None]).astype(np.float32)
         height = data[..., 7] * inv
-        lowest = float(height[alpha > 1e-6].min()) if np.any(alpha > 1e-6) else 0.0
-        out = (alpha, albedo, normal, height, lowest)
+        out = (alpha, albedo, normal, height)
         cache[key] = out  # type: ignore[assignment]
         if cache is self._large and len(self._large) > _LARGE_CACHE:
             self._large.popitem(last=False)

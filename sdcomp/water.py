@@ -34,6 +34,8 @@ ATTENUATION_TURBID = 5.0  # 1/m at turbidity 1 (silty river: visibility ~ 0.3 m)
 SLOPE_SCALE = 40.0  # uint8 units per standard deviation of a slope channel
 SKY_ZENITH = (0.16, 0.30, 0.62)  # linear RGB of the clear sky overhead
 SKY_HORIZON = (0.62, 0.70, 0.80)  # linear RGB of the sky at the horizon
+_SKY_ZENITH = np.asarray(SKY_ZENITH, np.float32)
+_SKY_HORIZON = np.asarray(SKY_HORIZON, np.float32)
 
 
 def parse_water(text: str) -> tuple[str, tuple[int, int, int]]:
@@ -63,21 +65,21 @@ def attenuation(turbidity: float) -> float:
 
 def refracted_cos(cos_incidence):
     """Cosine of the refracted angle under water for light arriving at ``cos_incidence``."""
-    sin_i = np.sqrt(np.clip(1.0 - np.square(cos_incidence), 0.0, 1.0))
-    return np.sqrt(1.0 - np.square(sin_i / REFRACTIVE_INDEX))
+    sin2_i = np.maximum(1.0 - np.square(cos_incidence), 0.0)
+    return np.sqrt(1.0 - sin2_i / REFRACTIVE_INDEX ** 2)
 
 
 def fresnel(cos_incidence):
     """Schlick's reflectance of the air-water surface for light at ``cos_incidence``."""
     r0 = ((REFRACTIVE_INDEX - 1) / (REFRACTIVE_INDEX + 1)) ** 2
-    return r0 + (1 - r0) * np.power(1.0 - np.clip(cos_incidence, 0.0, 1.0), 5)
+    return r0 + (1 - r0) * np.power(1.0 - np.minimum(np.maximum(cos_incidence, 0.0), 1.0), 5)
 
 
 def sky_linear(elevation_sin) -> np.ndarray:
     """Linear sky radiance (..., 3) for directions with sine of elevation ``elevation_sin``."""
-    t = np.sqrt(np.clip(np.asarray(elevation_sin, np.float32), 0.0, 1.0))[..., None]
-    return np.asarray(SKY_HORIZON, np.float32) * (1 - t) + np.asarray(SKY_ZENITH,
-                                                                        np.float32) * t
+    t = np.sqrt(np.minimum(np.maximum(np.asarray(elevation_sin, np.float32), 0.0), 1.0))
+    t = t[..., None]
+    return _SKY_HORIZON + (_SKY_ZENITH - _SKY_HORIZON) * t
 
 
 def slope_variance(wind: float) -> float:
@@ -103,21 +105,30 @@ class Texture:
         top = self.levels[-1]
         return top.reshape(-1, top.shape[-1]).mean(0).astype(np.float32)
 
-    def view(self, x0: float, y0: float, width_m: float, height_m: float,
-             out_w: int, out_h: int) -> np.ndarray:
-        """The axis-aligned ground rectangle from (x0, y0) metres, ``width_m`` x
-        ``height_m``, resampled to (out_h, out_w, C) uint8 (wrapping periodically)."""
+    def crop_size(self, width_m: float, height_m: float, out_w: int) -> tuple[int, int, int]:
+        """(mip level, crop width, crop height) in texels that :meth:`view` reads for a
+        ground rectangle of ``width_m`` x ``height_m`` metres drawn ``out_w`` pixels wide:
+        the finest level whose crop fits in one period and is at most twice ``out_w``."""
         k = 0
         while k + 1 < len(self.levels) and (max(width_m, height_m) / (self.pitch * 2 ** k)
                                              > (self.period >> k)
                                              or width_m / (self.pitch * 2 ** k) > 2 * out_w):
             k += 1
-        tile = self.levels[k]
         per = self.period >> k
         px = self.pitch * 2 ** k
         # whole-pixel crop (its size rounded: under half a pixel of scale error)
         cw = int(min(max(round(width_m / px), 1), 2 * per))
         ch = int(min(max(round(height_m / px), 1), 2 * per))
+        return k, cw, ch
+
+    def view(self, x0: float, y0: float, width_m: float, height_m: float,
+             out_w: int, out_h: int) -> np.ndarray:
+        """The axis-aligned ground rectangle from (x0, y0) metres, ``width_m`` x
+        ``height_m``, resampled to (out_h, out_w, C) uint8 (wrapping periodically)."""
+        k, cw, ch = self.crop_size(width_m, height_m, out_w)
+        tile = self.levels[k]
+        per = self.period >> k
+        px = self.pitch * 2 ** k
         ix = min(int(x0 / px) % per, 2 * per - cw)
         iy = min(int(y0 / px) % per, 2 * per - ch)
         crop = tile[iy:iy + ch, ix:ix + cw]

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp.camera import CameraPose
+from sdcomp.camera import CameraPose, ground_points
 from sdcomp.coloredmesh import ColoredMesh
-from sdcomp.compositor import MASK_THRESHOLD
+from sdcomp.compositor import MASK_THRESHOLD, REDUCE_MAX, lighting
 from sdcomp.config import GeneratorConfig, ObjectSpec
 from sdcomp.generator import Generator
 from sdcomp.mesh import MeshSpec, export_mesh
-from sdcomp.scene import Effects, Placement
+from sdcomp.scene import Effects, Placement, Shore, on_land
 from sdcomp.water import attenuation
 
 from .conftest import box_mesh
@@ -565,3 +565,47 @@ def test_line_mean_in_bands_equals_one_band(monkeypatch):
     monkeypatch.setattr(comp, "LINE_BAND_BYTES", 1)  # bands of 8 n rows: 3 here
     assert np.array_equal(comp._line_mean(image, 17, 63.0), whole)
     assert np.array_equal(comp._line_mean(image[..., 0], 17, 63.0), whole[..., 0])
+
+
+# --------------------------------------------------------------------------- 8. reduced water
+
+@pytest.mark.parametrize("altitude", [20.0, 45.0])
+@pytest.mark.parametrize("turbidity", [0.0, 1.0])
+@pytest.mark.parametrize("shore", [None, Shore(30.0, 6.0, 5)])
+def test_nadir_water_drawn_smaller_looks_the_same(rov, monkeypatch, altitude, turbidity,
+                                                  shore):
+    """Straight down from 20 m and higher, the wave texture of a 416 px frame is magnified
+    more than REDUCE_MAX times, so the water is drawn that much smaller and magnified: it
+    stays within a level or two on average, and a few at the 99th percentile, of the water
+    drawn at full size. Land (drawn afterwards, at full size) is identical."""
+    comp = rov.compositor
+    scene = replace(_scene(rov, [], altitude=altitude, turbidity=turbidity), shore=shore,
+                    floor_depth=4.0)
+    lit = lighting(scene)
+    assert comp._reduction(scene, lit) == REDUCE_MAX
+    small = comp._background(scene, lit, np.random.default_rng(1)).astype(int)
+    monkeypatch.setattr(comp, "_reduction", lambda *_: 1)
+    full = comp._background(scene, lit, np.random.default_rng(1)).astype(int)
+    diff = np.abs(small - full)
+    assert abs(float((small - full).mean())) < 0.25
+    assert float(diff.mean()) < 1.5 and np.percentile(diff, 99) <= 8
+    if shore is not None:
+        h, w = full.shape[:2]
+        v, u = np.mgrid[0:h, 0:w] + 0.5
+        pts, _ = ground_points(comp.model, scene.camera, u, v)
+        land = on_land(shore, pts[..., 0], pts[..., 1]).astype(np.uint8)
+        inside = cv2.erode(land, np.ones((15, 15), np.uint8)) > 0  # off the foam line
+        assert inside.mean() > 0.1
+        assert diff[inside].max() == 0
+
+
+def test_water_drawn_full_size_where_its_texture_is_fine(rov):
+    """Low (the texture's texels about one pixel), oblique, or on the user's photos: the
+    water is drawn at full size."""
+    comp = rov.compositor
+    low = _scene(rov, [], altitude=10.0)
+    assert comp._reduction(low, lighting(low)) == 1
+    oblique = replace(_scene(rov, []), camera=CameraPose(20.0, 60.0, 0.0))
+    assert comp._reduction(oblique, lighting(oblique)) == 1
+    high = _scene(rov, [], altitude=40.0)
+    assert comp._reduction(high, lighting(high)) == REDUCE_MAX
