@@ -528,22 +528,21 @@ class Compositor:
         rz = np.array([[math.cos(hd), -math.sin(hd), 0], [math.sin(hd), math.cos(hd), 0],
                        [0, 0, 1]])
         rot = rz @ tilt_matrix(pl.roll, pl.pitch)  # body -> world
-        pivot = np.array([pl.x, pl.y, -pl.draft])
-        origin = pivot + rot @ np.array([0.0, 0.0, -src.waterline])
+        origin = np.array([pl.x, pl.y, -pl.draft]) - src.waterline * rot[:, 2]
         to_cam = cam - origin
-        dist = float(np.linalg.norm(to_cam))
-        d_world = to_cam / dist
-        pose_i = src.nearest(rot.T @ d_world)
+        d_world = to_cam / math.sqrt(float(to_cam @ to_cam))
+        pose_i = src.nearest(d_world @ rot)  # rot.T @ d_world
         vb = src.bases[pose_i]  # rows right, up, toward in the body frame
-        right_w, up_w = rot @ vb[0], rot @ vb[1]
-        xc = basis @ (origin - cam)
+        xc = basis @ -to_cam
         z = float(xc[2])
         if z <= 0.05:
             return None
         fx, fy = model.fx, model.fy
         jac = np.array([[fx / z, 0, -fx * xc[0] / z ** 2],
                         [0, fy / z, -fy * xc[1] / z ** 2]]) @ basis
-        a = jac @ np.stack([right_w, -up_w], axis=1) * src.metres_per_pixel  # (2, 2)
+        # (2, 2): image pixels per sprite pixel along the sprite's right and down
+        a = (jac @ rot) @ (vb[:2].T * np.array([src.metres_per_pixel,
+                                                -src.metres_per_pixel]))
         u0 = fx * xc[0] / z + model.width / 2
         v0 = fy * xc[1] / z + model.height / 2
         scale = math.sqrt(abs(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
@@ -585,7 +584,7 @@ class Compositor:
         # the floor in clear water), displaced away from the sun
         c = scene.attenuation
         d_s = min(1.0 / c, scene.floor_depth)
-        sx, sy, sz = (float(v) for v in sun)
+        sx, sy, _ = sun.tolist()
         sun_h = max(math.hypot(sx, sy), 1e-9)
         k = d_s * (sun_h / REFRACTIVE_INDEX) / max(cos_sun_t, 0.05) / sun_h
         off = jac @ np.array([-sx * k, -sy * k, -d_s / REFRACTIVE_INDEX])

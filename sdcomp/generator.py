@@ -90,6 +90,12 @@ class Generator:
                                 workers=workers, rebuild_command=cmd, sheet=False)
         return SpriteSource(atlas)
 
+    def warm(self) -> None:
+        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`): call it
+        before forking workers, which then inherit them."""
+        for src in self.compositor.objects + self.compositor.clutter:
+            src.warm()
+
     def scene(self, index: int) -> Scene:
         """The scene description of image ``index``."""
         return sample_scene(self.config, index, self.model)

@@ -56,9 +56,12 @@ class SpriteSource:
             if cache is self._large:
                 self._large.move_to_end(key)
             return hit
-        base = self._base(pose)
-        n = self.size >> level
-        out = base if level == 0 else cv2.resize(base, (n, n), interpolation=cv2.INTER_AREA)
+        if level == 0:
+            out = self._base(pose)
+        else:  # halve the next finer level (cached too): a box filter of a box filter
+            n = self.size >> level
+            out = cv2.resize(self.level(pose, level - 1), (n, n),
+                             interpolation=cv2.INTER_AREA)
         out = np.ascontiguousarray(out, dtype=np.float32)
         cache[key] = out
         if cache is self._large and len(self._large) > _LARGE_CACHE:
@@ -87,12 +90,21 @@ class SpriteSource:
             self._large.popitem(last=False)
         return out
 
+    def warm(self) -> None:
+        """Prepare every pose at every mip level from 2 on (what frames up to about a
+        thousand pixels wide use; a few MB for a 128-px atlas): a process that forks workers
+        calls it first, so they share these instead of each drawing them on first use."""
+        for pose in range(len(self.directions)):
+            for level in range(2, self.max_level + 1):
+                self.prepared(pose, level)
+
     def _base(self, pose: int) -> np.ndarray:
+        """(S, S, 8) float32 premultiplied channels of ``pose`` at the atlas resolution."""
         a = self.atlas
-        alpha = a.alpha[pose].astype(np.float32)
-        out = np.empty((self.size, self.size, 8), np.float32)
+        alpha = np.ascontiguousarray(a.alpha[pose], dtype=np.float32)
+        albedo = cv2.LUT(np.ascontiguousarray(a.albedo[pose]), self._lut)  # linear RGB
+        out = cv2.merge([alpha, albedo, np.ascontiguousarray(a.normal[pose], np.float32),
+                         np.ascontiguousarray(a.height[pose], np.float32)])
+        out *= alpha[..., None]
         out[..., 0] = alpha
-        out[..., 1:4] = self._lut[a.albedo[pose]] * alpha[..., None]
-        out[..., 4:7] = a.normal[pose] * alpha[..., None]
-        out[..., 7] = a.height[pose] * alpha
         return out

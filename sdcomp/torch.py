@@ -180,6 +180,7 @@ class SyntheticDetection(torch.utils.data.Dataset):
         # built here, once: atlases are built (or a bad mesh reported) before any worker
         # starts; forked workers inherit it, pickled copies (spawn) rebuild it on first use
         self._gen: Generator | None = Generator(config, self.sprites_dir, progress=False)
+        self._gen.warm()  # sprites prepared once, here, instead of in every worker
 
     @property
     def generator(self) -> Generator:

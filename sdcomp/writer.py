@@ -30,6 +30,7 @@ import time
 from collections.abc import Iterable
 from contextlib import closing
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import cv2
@@ -82,8 +83,15 @@ def split_of(seed: int, index: int, val_fraction: float) -> str:
     k = int(round(val_fraction * SPLIT_BLOCK))
     if k <= 0:
         return "train"
-    perm = np.random.default_rng([int(seed), block, 0x5B11]).permutation(SPLIT_BLOCK)
-    return "val" if perm[pos] < k else "train"
+    return "val" if _block_order(int(seed), block)[pos] < k else "train"
+
+
+@lru_cache(maxsize=16)
+def _block_order(seed: int, block: int) -> tuple[int, ...]:
+    """The seeded permutation of a block of :data:`SPLIT_BLOCK` images (kept for the
+    block's other images: drawing it costs more than writing an image's record)."""
+    return tuple(np.random.default_rng([seed, block, 0x5B11]).permutation(SPLIT_BLOCK)
+                 .tolist())
 
 
 def image_name(index: int, ext: str) -> str:
@@ -202,6 +210,8 @@ def _results(gen: Generator, chunks: list[list[int]], options: RunOptions) -> It
         return
     # forked workers (see sdcomp.pool) inherit the generator; spawned ones rebuild it
     forked = "fork" in mp.get_all_start_methods()
+    if forked:
+        gen.warm()  # its sprites prepared once, here, instead of in every worker
     yield from imap_ordered(_work, chunks, options.workers, initializer=_init_worker,
                             initargs=(str(options.out), None if forked
                                       else (gen.config, str(options.sprites_dir))),

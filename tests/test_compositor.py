@@ -609,3 +609,37 @@ def test_water_drawn_full_size_where_its_texture_is_fine(rov):
     assert comp._reduction(oblique, lighting(oblique)) == 1
     high = _scene(rov, [], altitude=40.0)
     assert comp._reduction(high, lighting(high)) == REDUCE_MAX
+
+
+# --------------------------------------------------------------------------- 9. sprite levels
+
+def test_sprite_levels_are_box_filters_of_the_atlas(rov):
+    """Level L of a pose (made by halving level L - 1) is the atlas's premultiplied
+    channels averaged over 2**L x 2**L blocks, whatever order the levels are asked in."""
+    src = rov.compositor.objects[0]
+    base = src._base(5).astype(np.float64)
+    for level in (3, 1, 2, 5):
+        n = src.size >> level
+        block = base.reshape(n, 1 << level, n, 1 << level, 8).mean(axis=(1, 3))
+        np.testing.assert_allclose(src.level(5, level), block, atol=1e-5)
+
+
+def test_warm_prepares_everything_a_416_frame_uses(sprites_dir):
+    """After Generator.warm(), rendering default 416 px images (objects and clutter) adds
+    nothing to the sprite caches, so forked workers share what the parent prepared; the
+    pixels are the same as without it."""
+    config = GeneratorConfig(seed=3)
+    cold = Generator(config, sprites_dir)
+    warm = Generator(config, sprites_dir)
+    warm.warm()
+    sources = warm.compositor.objects + warm.compositor.clutter
+    assert len(sources) > 1
+
+    def entries() -> int:
+        return sum(len(s._small) + len(s._large) for s in sources)
+
+    before = entries()
+    for i in range(40):
+        a, b = warm.render(i), cold.render(i)
+        assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
+    assert entries() == before
