@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -74,18 +75,18 @@ class CameraModel:
         fov = 2 * math.degrees(math.atan(diag / (2 * focal_mm)))
         return cls(sensor_width, sensor_height, fov, width, height)
 
-    @property
+    @cached_property
     def sensor_focal_px(self) -> float:
         """Focal length in sensor pixels (square sensor pixels)."""
         half_diag = math.hypot(self.sensor_width, self.sensor_height) / 2
         return half_diag / math.tan(math.radians(self.diagonal_fov) / 2)
 
-    @property
+    @cached_property
     def fx(self) -> float:
         """Focal length in output pixels along the image x axis."""
         return self.sensor_focal_px * self.width / self.sensor_width
 
-    @property
+    @cached_property
     def fy(self) -> float:
         """Focal length in output pixels along the image y axis."""
         return self.sensor_focal_px * self.height / self.sensor_height

@@ -568,7 +568,7 @@ class Compositor:
         prepared = src.prepared(pose_i, level)
         height = prepared[3]
         if pl.roll or pl.pitch:
-            height = _tilted_heights(height, vb, src, level, pl)
+            height = _tilted_heights(height, vb, src, level, rot[2])
         # channels: premultiplied sRGB colour (3), coverage, weight
         stack = np.empty(prepared[0].shape + (5,), np.float32)
         stack[..., 3] = prepared[0]
@@ -578,8 +578,10 @@ class Compositor:
                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         if warped.ndim == 2:
             warped = warped[..., None]
-        coverage = warped[..., 3:5]  # coverage and weight, clipped to [0, 1] in place
-        np.minimum(np.maximum(coverage, 0.0, out=coverage), 1.0, out=coverage)
+        # coverage and weight: bilinear mixes of values in [0, 1] with weights >= 0 summing
+        # to 1 (within rounding): capped at 1 in place
+        coverage = warped[..., 3:5]
+        np.minimum(coverage, 1.0, out=coverage)
         # shadow on the water: under water at the depth light scatters back from (or on
         # the floor in clear water), displaced away from the sun
         c = scene.attenuation
@@ -630,8 +632,10 @@ class Compositor:
         light *= 1.0 - np.float32(r) * under
         lin = albedo * (np.asarray(pl.tint, np.float32) * gain)
         lin *= light[..., None]
-        lin += (1.0 - trans)[..., None] * (body * gain * np.float32(1.0 - r))
-        lin += under[..., None] * (sky_linear(cz) * gain * np.float32(r))
+        # + (1 - t) x body x (1 - r) + u x sky x r: one (n, n, 2) @ (2, 3) product
+        terms = np.stack([1.0 - trans, under], axis=-1, dtype=np.float32)
+        lin += terms @ np.stack([body * gain * np.float32(1.0 - r),
+                                 sky_linear(cz) * gain * np.float32(r)])
         np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
 
     # ------------------------------------------------------------------ masks
@@ -818,9 +822,10 @@ def _motion_kernel(length: float, angle: float) -> np.ndarray:
 
 
 def _tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level: int,
-                    pl) -> np.ndarray:
+                    row: np.ndarray) -> np.ndarray:
     """(n, n) float32 heights above the sea of the body tilted by the placement's roll and
-    pitch, from the level body's ``height`` (n, n) float32 of a sprite of mip ``level``.
+    pitch, from the level body's ``height`` (n, n) float32 of a sprite of mip ``level``;
+    ``row`` (3,) is the last row of the body's rotation (the tilt's: heading keeps z).
 
     A pixel at sprite position (x right, y up, metres from the body origin) with level
     height ``h`` is the body-frame point ``p = x r + y u + d t`` (``vb`` rows r, u, t:
@@ -833,7 +838,6 @@ def _tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level
     pitch_m = src.metres_per_pixel * (1 << level)
     c = (np.arange(n, dtype=np.float32) + np.float32(0.5 - n / 2)) * np.float32(pitch_m)
     wl = src.waterline
-    row = tilt_matrix(pl.roll, pl.pitch)[2]
     r_, u_, t_ = vb
     k = float(t_ @ row) / max(float(t_[2]), 1e-3)
     kx = float(r_ @ row) - k * float(r_[2])
