@@ -6,7 +6,9 @@ Per image, in this order:
    reflection, sun glint, wave shading, whitecaps, haze, sky and hills above the horizon,
    land beyond a coastline) or one of the user's photos. Smooth terms are computed on a
    coarse grid (every 16 pixels) and interpolated; texture detail comes from periodic tiles
-   sampled through the ground geometry of the camera.
+   sampled through the ground geometry of the camera. Looking straight down, the water is
+   drawn up to :data:`REDUCE_MAX` times smaller where its textures are magnified that much
+   anyway, and magnified once (land and sky are then drawn at full size).
 2. **Layers**: every floating object (objects of interest and clutter) as an atlas sprite:
    the nearest stored pose, relit by the sun, parts under the waterline attenuated and tinted
    by the water (Beer-Lambert), mapped to the image by the camera's projection linearised at
