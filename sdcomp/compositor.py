@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
 
 import cv2
 import numpy as np
@@ -137,7 +136,10 @@ class Compositor:
     def __init__(self, config: GeneratorConfig, objects: list[SpriteSource],
                  clutter: list[SpriteSource], waves: list[Texture], floor: Texture,
                  land: Texture, backgrounds=None, model: CameraModel | None = None,
-                 grid: int = GRID):
+                 grid: int = GRID, finishing: bool = True):
+        """``grid``: pixels between the samples of the smooth background terms;
+        ``finishing``: False for the smaller compositors that only draw backgrounds (they
+        get no noise tile)."""
         self.config = config
         self.model: CameraModel = model or config.camera_model()
         self.objects = objects
@@ -168,18 +170,11 @@ class Compositor:
             small = CameraModel(m.sensor_width, m.sensor_height, m.diagonal_fov,
                                 max(1, round(m.width * f)), max(1, round(m.height * f)))
             self._bg = Compositor(config, objects, clutter, waves, floor, land, backgrounds,
-                                  model=small)
+                                  model=small, finishing=False)
         self.floor_mean = srgb_to_linear(floor.mean / 255.0)
+        # the sensor-noise tile, made here (forked workers inherit it)
+        self.noise = _noise_tile(config.seed, h, w) if finishing else None
 
-    @cached_property
-    def noise(self) -> np.ndarray:
-        """The sensor-noise tile (nh, nw, 3) uint8, 128 + NOISE_SCALE x N(0, 1), a function
-        of the seed; frames larger than it get it added block by block (_add_noise)."""
-        h, w = self.model.height, self.model.width
-        rng = np.random.default_rng([self.config.seed, 31337])
-        nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
-        noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
-        return np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
 
     def _reduction(self, scene: Scene, lit: Lighting) -> int:
         """How many times smaller (1, 2, 4 or 8) the water of ``scene`` can be drawn and
@@ -214,7 +209,8 @@ class Compositor:
                                 max(1, round(m.width / f)), max(1, round(m.height / f)))
             self._smaller[f] = Compositor(self.config, self.objects, self.clutter, self.waves,
                                           self.floor, self.land, self.backgrounds,
-                                          model=small, grid=max(1, GRID // f))
+                                          model=small, grid=max(1, GRID // f),
+                                          finishing=False)
         return self._smaller[f]
 
     @staticmethod
@@ -711,6 +707,17 @@ class Compositor:
         if fx.noise > 0:
             image = _add_noise(image, self.noise, fx.noise / NOISE_SCALE, rng)
         return image
+
+
+def _noise_tile(seed: int, h: int, w: int) -> np.ndarray:
+    """The sensor-noise tile of frames of (h, w) pixels: (nh, nw, 3) uint8,
+    ``128 + NOISE_SCALE x N(0, 1)``, a function of ``seed``, at least 1021 pixels larger than
+    the frame in each direction up to 1024 (frames larger than it get it added block by
+    block: :func:`_add_noise`)."""
+    rng = np.random.default_rng([seed, 31337])
+    nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
+    noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
+    return np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
 
 
 def _add_noise(image: np.ndarray, noise: np.ndarray, s: float, rng) -> np.ndarray:

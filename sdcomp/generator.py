@@ -33,6 +33,7 @@ DEFAULT_SPRITES = "sprites"
 CLUTTER_ATLAS = AtlasConfig(size=64, supersample=3,
                             grid=PoseGrid(off_nadir_step=15.0, max_error=10.0))
 WAVE_DIRECTIONS = (0.0, 45.0, 90.0, 135.0)
+WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
 
 
 @dataclass
@@ -91,8 +92,12 @@ class Generator:
         return SpriteSource(atlas)
 
     def warm(self) -> None:
-        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`): call it
-        before forking workers, which then inherit them."""
+        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`, 0.2 s): call
+        it before forking workers, which then inherit them. Frames wider or higher than
+        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them it
+        does nothing."""
+        if max(self.model.width, self.model.height) > WARM_MAX_SIDE:
+            return
         for src in self.compositor.objects + self.compositor.clutter:
             src.warm()
 
