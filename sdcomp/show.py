@@ -5,6 +5,8 @@ Reads the folder that the generator wrote::
     DIR/images/000000.jpg            photos (file_name in the COCO files)
     DIR/masks/000000.png             16-bit instance ids (mask_file in the COCO files)
     DIR/annotations/instances_train.json, instances_val.json
+    DIR/records.jsonl                the run's journal: read instead of the COCO files in a
+                                     folder written with --format yolo (which has none)
 
 and draws, per chosen image, the photo letterboxed into a square cell, the outline of each
 instance (traced in the full-resolution mask, then scaled), its COCO box, both in one bright
@@ -39,6 +41,7 @@ import cv2
 import numpy as np
 
 from .cli import prog
+from .coco import iter_records, read_journal
 from .errors import UserError, run_cli
 from .fileio import atomic_write_bytes
 from .pngio import decode_png16
@@ -118,6 +121,9 @@ def _read_coco(path: Path, how: str) -> dict:
 def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
     """The images (sorted by id) with their annotations of ``split`` ("all", "train", "val").
 
+    A folder written without COCO files (``--format yolo``, as its dataset.json says) is
+    read from its journal, ``records.jsonl``: the records the COCO files would be made of.
+
     UserError for an unknown split, a folder that is missing or not a generated dataset,
     or a COCO file that is missing, not JSON or not COCO.
     """
@@ -130,6 +136,9 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
     if not folder.is_dir():
         raise UserError(f"{str(folder)!r} is a file, not a dataset folder: give the --out "
                         f"folder of `python -m sdcomp.generate`")
+    categories = _without_coco(folder)
+    if categories is not None:
+        return _from_journal(folder, split, categories)
     ann_dir = folder / "annotations"
     if not ann_dir.is_dir():
         raise UserError(f"{str(folder)!r} is not a generated dataset (no annotations/ folder): "
@@ -162,6 +171,34 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
                 raise UserError(f"{str(paths[s])!r}: an image record lacks an integer 'id' or "
                                 f"a 'file_name': {_resume(folder)} to rewrite it")
             entries.append(Entry(img, by_image.get(img["id"], []), s))
+    entries.sort(key=lambda e: (e.id, e.split))
+    return Dataset(folder, entries, categories)
+
+
+def _without_coco(folder: Path) -> dict[int, str] | None:
+    """The categories (id -> name) of a dataset written without COCO files (its
+    dataset.json's config has no "coco" in its format), else None."""
+    try:
+        meta = json.loads((folder / "dataset.json").read_bytes())
+        config = meta["config"]
+        formats = str(config["format"]).split(",")
+        objects = config["objects"]
+        names = {i + 1: str(o["category"]) for i, o in enumerate(objects)}
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
+        return None  # no readable dataset.json: the COCO files are the dataset
+    return None if "coco" in formats else names
+
+
+def _from_journal(folder: Path, split: str, categories: dict[int, str]) -> Dataset:
+    """The images of ``split`` from the journal of a dataset without COCO files."""
+    journal = folder / "records.jsonl"
+    if not journal.is_file():
+        raise UserError(f"{str(folder)!r} was written without COCO files and its journal "
+                        f"records.jsonl is missing: {_resume(folder)} to rewrite it")
+    offsets = read_journal(journal)
+    wanted = None if split == "all" else split
+    entries = [Entry(rec["image"], rec["annotations"], rec["split"])
+               for rec in iter_records(journal, offsets, wanted)]
     entries.sort(key=lambda e: (e.id, e.split))
     return Dataset(folder, entries, categories)
 

@@ -215,7 +215,8 @@ class SyntheticDetection(torch.utils.data.Dataset):
 class GeneratedCoco(torch.utils.data.Dataset):
     """The images of one split of a folder written by ``sdcomp generate``, in index order, as
     ``(image, target)`` (see the module docstring). Masks come from ``masks/`` (16-bit
-    instance ids), boxes and labels from ``annotations/instances_{split}.json``.
+    instance ids), boxes and labels from ``annotations/instances_{split}.json`` (or, in a
+    folder written with ``--format yolo``, from the run's journal ``records.jsonl``).
 
     Args:
         folder: the dataset folder (the generator's ``--out``).

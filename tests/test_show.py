@@ -26,6 +26,8 @@ from sdcomp.show import (
     select_indices,
 )
 
+from .datasets import generate
+
 ROOT = Path(__file__).resolve().parents[1]
 W, H = 64, 48
 FILL_BGR = (90, 60, 30)  # image background: far from every palette colour
@@ -440,3 +442,31 @@ def test_python_api_raises_user_errors(ds):
     with pytest.raises(UserError, match="000004.png"):
         (ds / "images" / "000004.png").unlink()
         contact_sheet(ds)
+
+
+# --------------------------------------------------------------------------- no COCO files
+
+ANN_KEYS = ("instance_id", "category_id", "bbox", "area", "segmentation", "iscrowd")
+
+
+def test_folder_without_coco_files_is_read_from_its_journal(tmp_path, sprites_dir):
+    """--format yolo writes no COCO files: the folder is read from its journal, with the
+    same images, annotations, categories and contact sheet as the same run written with
+    COCO files; with the journal gone, one line says how to rewrite it."""
+    base = ["--n", "8", "--seed", "5", "--count", "1-3"]
+    with_coco, yolo_only = tmp_path / "coco", tmp_path / "yolo"
+    assert generate(base, with_coco, sprites_dir, "--format", "coco,yolo")[0] == 0
+    assert generate(base, yolo_only, sprites_dir, "--format", "yolo")[0] == 0
+    assert not (yolo_only / "annotations" / "instances_train.json").exists()
+    for split in ("all", "train", "val"):
+        a, b = load_dataset(with_coco, split), load_dataset(yolo_only, split)
+        assert a.categories == b.categories == {1: "bluerov2"}
+        assert [(e.split, e.image) for e in a.entries] == [(e.split, e.image) for e in b.entries]
+        assert [[{k: x[k] for k in ANN_KEYS} for x in e.annotations] for e in a.entries] == [
+            [{k: x[k] for k in ANN_KEYS} for x in e.annotations] for e in b.entries]
+    assert sum(len(e.annotations) for e in load_dataset(yolo_only).entries) > 0
+    assert np.array_equal(contact_sheet(with_coco, n=8), contact_sheet(yolo_only, n=8))
+    (yolo_only / "records.jsonl").unlink()
+    with pytest.raises(UserError, match="records.jsonl is missing") as err:
+        load_dataset(yolo_only)
+    assert "--resume" in str(err.value) and "\n" not in str(err.value)

@@ -166,13 +166,18 @@ def test_transforms_hook(sprites_dir):
     assert torch.equal(b, a.flip(-1)) and torch.equal(tb["masks"], ta["masks"].flip(-1))
 
 
-def test_generated_coco_matches_on_the_fly(tmp_path, dataset, sprites_dir):
+@pytest.mark.parametrize("fmt", ["coco", "yolo"])
+def test_generated_coco_matches_on_the_fly(tmp_path, dataset, sprites_dir, fmt):
+    """A written folder reads back as the on-the-fly dataset; one written with --format yolo
+    (no COCO files) is read from its journal."""
     out = tmp_path / "ds"
     err = io.StringIO()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
         rc = run_cli(main, ["--config", str(_toml(tmp_path)), "--n", "20", "--out", str(out),
-                            "--sprites", str(sprites_dir), "--workers", "1", "--no-progress"])
+                            "--sprites", str(sprites_dir), "--workers", "1", "--no-progress",
+                            "--format", fmt])
     assert rc == 0, err.getvalue()
+    assert (out / "annotations" / "instances_train.json").exists() == (fmt == "coco")
     both = {}
     for split in ("train", "val"):
         ds = GeneratedCoco(out, split)
