@@ -44,8 +44,8 @@ from .scene import Scene, coast_wiggle
 from .shading import linear_to_srgb, srgb_to_linear, sun_direction
 from .sprites import SpriteSource
 from .water import (
-    _SKY_HORIZON,
     REFRACTIVE_INDEX,
+    SKY_HORIZON_RGB,
     SLOPE_SCALE,
     Texture,
     fresnel,
@@ -175,7 +175,6 @@ class Compositor:
         # the sensor-noise tile, made here (forked workers inherit it)
         self.noise = _noise_tile(config.seed, h, w) if finishing else None
 
-
     def _reduction(self, scene: Scene, lit: Lighting) -> int:
         """How many times smaller (1, 2, 4 or 8) the water of ``scene`` can be drawn and
         then magnified without losing detail: the largest power of two, at most
@@ -288,7 +287,7 @@ class Compositor:
             glint *= hit
             dist = np.where(hit, dist, 1e9).astype(np.float32)
         haze = (1.0 - np.exp(dist * np.float32(-1.0 / HAZE_DISTANCE)))[..., None]
-        water += (_SKY_HORIZON - water) * haze
+        water += (SKY_HORIZON_RGB - water) * haze
         gain = (1.0 - scene.effects.vignetting * self.grid_r2)[..., None] * lit.wb
         if all_hit:
             env = water * gain

@@ -92,8 +92,9 @@ class SpriteSource:
 
     def warm(self) -> None:
         """Prepare every pose at every mip level from 2 on (what frames up to about a
-        thousand pixels wide use; a few MB for a 128-px atlas): a process that forks workers
-        calls it first, so they share these instead of each drawing them on first use."""
+        thousand pixels wide use; about 35 MB and 0.2 s for the BlueROV2 and the four kinds
+        of clutter together): a process that forks workers calls it first, so they share
+        these instead of each drawing them on first use."""
         for pose in range(len(self.directions)):
             for level in range(2, self.max_level + 1):
                 self.prepared(pose, level)

@@ -34,8 +34,8 @@ ATTENUATION_TURBID = 5.0  # 1/m at turbidity 1 (silty river: visibility ~ 0.3 m)
 SLOPE_SCALE = 40.0  # uint8 units per standard deviation of a slope channel
 SKY_ZENITH = (0.16, 0.30, 0.62)  # linear RGB of the clear sky overhead
 SKY_HORIZON = (0.62, 0.70, 0.80)  # linear RGB of the sky at the horizon
-_SKY_ZENITH = np.asarray(SKY_ZENITH, np.float32)
-_SKY_HORIZON = np.asarray(SKY_HORIZON, np.float32)
+SKY_ZENITH_RGB = np.asarray(SKY_ZENITH, np.float32)  # the same as (3,) float32 arrays
+SKY_HORIZON_RGB = np.asarray(SKY_HORIZON, np.float32)
 
 
 def parse_water(text: str) -> tuple[str, tuple[int, int, int]]:
@@ -79,7 +79,7 @@ def sky_linear(elevation_sin) -> np.ndarray:
     """Linear sky radiance (..., 3) for directions with sine of elevation ``elevation_sin``."""
     t = np.sqrt(np.minimum(np.maximum(np.asarray(elevation_sin, np.float32), 0.0), 1.0))
     t = t[..., None]
-    return _SKY_HORIZON + (_SKY_ZENITH - _SKY_HORIZON) * t
+    return SKY_HORIZON_RGB + (SKY_ZENITH_RGB - SKY_HORIZON_RGB) * t
 
 
 def slope_variance(wind: float) -> float:
