@@ -376,7 +376,10 @@ class Compositor:
     def _perspective_sample(self, tile: Texture, pose: CameraPose, x0: float, y0: float
                             ) -> np.ndarray:
         """Sample a ground texture through the camera (oblique views): image rows map to
-        ground distance, columns to the lateral offset, in the camera's heading frame."""
+        ground distance, columns to the lateral offset, in the camera's heading frame.
+
+        Rows whose pixels span many texels would alias: they fade to the tile's mean (and
+        rows that are all mean, beyond the fade or above the horizon, are not sampled)."""
         model = self.model
         w, h = model.width, model.height
         u = (np.arange(w, dtype=np.float32) + 0.5 - w / 2) / model.fx
@@ -385,23 +388,33 @@ class Compositor:
         # camera frame ray (u, v, 1) in (forward-horizontal, right, up) components
         fwd = math.cos(p) - v * math.sin(p)
         up = -math.sin(p) - v * math.cos(p)
-        t = np.where(up < -1e-4, pose.altitude / np.maximum(-up, 1e-4), np.nan)
-        ground_f = (fwd * t).astype(np.float32)
-        ground_r = (t[:, None] * u[None, :]).astype(np.float32)
-        mx = np.broadcast_to(ground_r, (h, w)) + np.float32(x0)
-        my = np.broadcast_to(-ground_f[:, None], (h, w)) + np.float32(y0)
-        valid_row = np.isfinite(t)
-        mx = np.where(valid_row[:, None], mx, 0).astype(np.float32)
-        my = np.where(valid_row[:, None], my, 0).astype(np.float32)
+        valid_row = up < -1e-4
+        t = np.where(valid_row, pose.altitude / np.maximum(-up, 1e-4), np.inf)  # distance
         centre = min(int(h * 0.75), h - 1)
         pitch_m = float(t[centre]) / model.fx if valid_row[centre] else 1.0
-        tex = tile.sample(mx, my, pitch_m)
-        # rows whose pixels span many texels would alias: fade them to the tile's mean
-        row_pitch = np.where(valid_row, t, np.inf) / model.fx  # metres per pixel per row
+        row_pitch = t / model.fx  # metres per pixel per row
         over = np.log2(np.maximum(row_pitch / max(pitch_m, 1e-9), 1e-9))
-        keep = np.clip(1.5 - over, 0.0, 1.0).astype(np.float32)[:, None, None]
-        faded = (tex.astype(np.float32) - tile.mean) * keep + tile.mean
-        return np.clip(faded + 0.5, 0, 255).astype(np.uint8)
+        keep = np.clip(1.5 - over, 0.0, 1.0).astype(np.float32)  # (h,) 1: texture, 0: mean
+        mean = tile.mean
+        # one row of the mean colour (whole rows are copied fast; a (C,) broadcast is not)
+        mean_row = np.tile(np.clip(mean + 0.5, 0, 255).astype(np.uint8), w)
+        out = np.empty((h, w, mean.size), np.uint8)
+        rows = np.flatnonzero(keep > 0)
+        r0, r1 = (int(rows[0]), int(rows[-1]) + 1) if rows.size else (h, h)
+        out.reshape(h, -1)[:r0] = mean_row
+        out.reshape(h, -1)[r1:] = mean_row
+        if r0 == r1:
+            return out
+        tex = tile.sample_rows(x0, y0, t[r0:r1], u, -fwd[r0:r1] * t[r0:r1], pitch_m)
+        out[r0:r1] = tex
+        fade = np.flatnonzero(keep[r0:r1] < 1) + r0  # rows of tex x keep + mean x (1 - keep)
+        if fade.size:
+            f0, f1 = int(fade[0]), int(fade[-1]) + 1
+            band = out[f0:f1]
+            k = np.repeat(keep[f0:f1, None], w, axis=1)
+            means = np.repeat(mean_row[None], f1 - f0, axis=0).reshape(band.shape)
+            cv2.blendLinear(band, means, k, 1.0 - k, dst=band)
+        return out
 
     def _add_floor(self, image: np.ndarray, scene: Scene, e: dict) -> None:
         """Sea-floor texture detail (rocks, sand ripples) where the floor shows through,

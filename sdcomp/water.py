@@ -135,16 +135,25 @@ class Texture:
         interp = cv2.INTER_AREA if (cw > out_w or ch > out_h) else cv2.INTER_LINEAR
         return cv2.resize(crop, (out_w, out_h), interpolation=interp)
 
-    def sample(self, x: np.ndarray, y: np.ndarray, pitch_m: float) -> np.ndarray:
-        """Texture at ground points ``x``, ``y`` (metres, any shape, float32) through the mip
-        level suited to a pixel footprint of ``pitch_m`` metres (perspective views)."""
+    def sample_rows(self, x0: float, y0: float, scale: np.ndarray, u: np.ndarray,
+                    y_rows: np.ndarray, pitch_m: float) -> np.ndarray:
+        """Texture at the ground points ``(x0 + scale[i] * u[j], y0 + y_rows[i])`` metres
+        (rows ``i``, columns ``j``: a perspective view's rows lie along its ground lines),
+        (len(scale), len(u), C) uint8, through the mip level suited to a pixel footprint of
+        ``pitch_m`` metres."""
         k = int(np.clip(math.floor(math.log2(max(pitch_m / self.pitch, 1.0))), 0,
                         len(self.levels) - 1))
         per = self.period >> k
         px = self.pitch * 2 ** k
         tile = self.levels[k][:per, :per]
-        mx = ((np.asarray(x, np.float32) / px) % per).astype(np.float32)
-        my = ((np.asarray(y, np.float32) / px) % per).astype(np.float32)
+        # texel coordinates within the first period (remap's fast path; BORDER_WRAP only
+        # for the samples that straddle its edge); y is one value per row
+        mx = np.multiply.outer((np.asarray(scale) / px).astype(np.float32),
+                               np.asarray(u, np.float32))
+        mx += np.float32((x0 / px) % per)
+        mx -= np.floor(mx * np.float32(1.0 / per)) * np.float32(per)  # (np.remainder: slow)
+        my = np.empty_like(mx)
+        my[:] = ((np.asarray(y_rows) / px + y0 / px) % per).astype(np.float32)[:, None]
         return cv2.remap(tile, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
 
 

@@ -643,3 +643,40 @@ def test_warm_prepares_everything_a_416_frame_uses(sprites_dir):
         a, b = warm.render(i), cold.render(i)
         assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
     assert entries() == before
+
+
+# --------------------------------------------------------------------------- oblique textures
+
+def test_texture_rows_are_the_texture_at_each_ground_point(rov):
+    """Texture.sample_rows (one ground line per row) equals sampling every point
+    (x0 + scale_i u_j, y0 + y_i) by itself, wrapped into the tile's period, to within a
+    level (the sampling position is rounded to 1/32 texel either way)."""
+    tile = rov.compositor.waves[1]
+    rng = np.random.default_rng(4)
+    scale = rng.uniform(2.0, 40.0, 50)
+    u = np.linspace(-0.7, 0.7, 90)
+    y_rows = rng.uniform(-300.0, 300.0, 50)
+    x0, y0, pitch_m = 123.4, -56.7, 0.3
+    rows = tile.sample_rows(x0, y0, scale, u, y_rows, pitch_m)
+    k = int(math.floor(math.log2(pitch_m / tile.pitch)))
+    per, px = tile.period >> k, tile.pitch * 2 ** k
+    x = (x0 + scale[:, None] * u[None, :]) / px % per
+    y = np.broadcast_to((y0 + y_rows[:, None]) / px % per, x.shape)
+    want = cv2.remap(tile.levels[k][:per, :per], x.astype(np.float32), y.astype(np.float32),
+                     cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+    assert rows.shape == want.shape == (50, 90, 3)
+    assert np.abs(rows.astype(int) - want).max() <= 1
+
+
+def test_oblique_view_rows_above_the_horizon_and_far_away_are_the_mean(rov):
+    """Looking 15 degrees down, rows above the horizon and rows whose pixels span many
+    texels are the tile's mean colour; near rows carry the texture."""
+    comp = rov.compositor
+    tile = comp.waves[0]
+    out = comp._perspective_sample(tile, CameraPose(20.0, 15.0, 0.0), 3.0, 7.0)
+    mean = np.clip(tile.mean + 0.5, 0, 255).astype(np.uint8)
+    horizon = comp.model.height / 2 - comp.model.fy * math.tan(math.radians(15.0))
+    assert 50 < horizon < 150
+    assert (out[:int(horizon)] == mean).all()
+    assert (out[int(horizon) + 1:int(horizon) + 4] == mean).all()  # far: faded
+    assert out[-20:].std(axis=(0, 1)).min() > 2  # near: texture
