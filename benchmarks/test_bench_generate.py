@@ -31,8 +31,7 @@ HUGE_LIMITS = {"peak_mib": 6 * 1024, "seconds": 120.0}  # the reliability issue'
 @pytest.fixture(scope="module")
 def default_generator(sprites_dir):
     gen = Generator(GeneratorConfig(n=1000), sprites_dir, progress=False)
-    for i in range(300):  # warm the sprite caches, as a long run would
-        gen.render(i)
+    gen.warm()  # every sprite level a 416 px frame uses, as a long run has them
     return gen
 
 
