@@ -136,9 +136,11 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
     if not folder.is_dir():
         raise UserError(f"{str(folder)!r} is a file, not a dataset folder: give the --out "
                         f"folder of `python -m sdcomp.generate`")
-    categories = _without_coco(folder)
-    if categories is not None:
-        return _from_journal(folder, split, categories)
+    if _written_without_coco(folder):
+        if not (folder / "records.jsonl").is_file():
+            raise UserError(f"{str(folder)!r} was written without COCO files and its journal "
+                            f"records.jsonl is missing: {_resume(folder)} to rewrite it")
+        return journal_dataset(folder, split)
     ann_dir = folder / "annotations"
     if not ann_dir.is_dir():
         raise UserError(f"{str(folder)!r} is not a generated dataset (no annotations/ folder): "
@@ -175,31 +177,32 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
     return Dataset(folder, entries, categories)
 
 
-def _without_coco(folder: Path) -> dict[int, str] | None:
-    """The categories (id -> name) of a dataset written without COCO files (its
-    dataset.json's config has no "coco" in its format), else None."""
+def _written_without_coco(folder: Path) -> bool:
+    """Whether the dataset.json of ``folder`` says its run wrote no COCO files (False when
+    it cannot be read: the COCO files are the dataset)."""
     try:
-        meta = json.loads((folder / "dataset.json").read_bytes())
-        config = meta["config"]
-        formats = str(config["format"]).split(",")
-        objects = config["objects"]
-        names = {i + 1: str(o["category"]) for i, o in enumerate(objects)}
+        config = json.loads((folder / "dataset.json").read_bytes())["config"]
+        return "coco" not in str(config["format"]).split(",")
     except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
-        return None  # no readable dataset.json: the COCO files are the dataset
-    return None if "coco" in formats else names
+        return False
 
 
-def _from_journal(folder: Path, split: str, categories: dict[int, str]) -> Dataset:
-    """The images of ``split`` from the journal of a dataset without COCO files."""
+def journal_dataset(folder: str | Path, split: str = "all") -> Dataset:
+    """The images of ``split`` read from the run's journal, ``records.jsonl`` (the records
+    the COCO files are made from), with the category names of its dataset.json (none when
+    that cannot be read)."""
+    folder = Path(folder)
     journal = folder / "records.jsonl"
-    if not journal.is_file():
-        raise UserError(f"{str(folder)!r} was written without COCO files and its journal "
-                        f"records.jsonl is missing: {_resume(folder)} to rewrite it")
     offsets = read_journal(journal)
     wanted = None if split == "all" else split
     entries = [Entry(rec["image"], rec["annotations"], rec["split"])
                for rec in iter_records(journal, offsets, wanted)]
     entries.sort(key=lambda e: (e.id, e.split))
+    try:
+        config = json.loads((folder / "dataset.json").read_bytes())["config"]
+        categories = {i + 1: str(o["category"]) for i, o in enumerate(config["objects"])}
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
+        categories = {}
     return Dataset(folder, entries, categories)
 
 

@@ -32,7 +32,6 @@ from pathlib import Path
 import numpy as np
 
 from .cli import prog
-from .coco import iter_records, read_journal
 from .errors import UserError, run_cli
 from .fileio import atomic_write_bytes
 from .log import add_verbosity_flags, setup_logging
@@ -49,31 +48,19 @@ WATER_KEY = "water_color"
 
 
 def _entries(folder: Path) -> tuple[list[tuple[str, dict, list]], dict[int, str]]:
-    """(split, image, annotations) of every image, and the category names by id."""
+    """(split, image, annotations) of every image, and the category names by id: from the
+    COCO files, or from the journal where there are none."""
+    from .show import journal_dataset, load_dataset  # the checked readers
+
     ann_dir = folder / "annotations"
     if any((ann_dir / f"instances_{s}.json").is_file() for s in SPLITS):
-        from .show import load_dataset  # the checked COCO reader
-
         ds = load_dataset(folder, "all")
-        return [(e.split, e.image, e.annotations) for e in ds.entries], dict(ds.categories)
-    journal = folder / "records.jsonl"
-    if not folder.is_dir() or not journal.is_file():
-        raise UserError(f"{str(folder)!r} is not a generated dataset (no COCO files, no "
-                        f"records.jsonl): give the --out folder of `sdcomp generate`")
-    offsets = read_journal(journal)
-    out = [(r["split"], r["image"], r["annotations"]) for r in iter_records(journal, offsets)]
-    names = _journal_categories(folder)
-    return out, names
-
-
-def _journal_categories(folder: Path) -> dict[int, str]:
-    import json
-
-    try:
-        config = json.loads((folder / "dataset.json").read_text())["config"]
-        return {i + 1: o["category"] for i, o in enumerate(config["objects"])}
-    except (OSError, ValueError, KeyError, TypeError):
-        return {}
+    else:
+        if not folder.is_dir() or not (folder / "records.jsonl").is_file():
+            raise UserError(f"{str(folder)!r} is not a generated dataset (no COCO files, no "
+                            f"records.jsonl): give the --out folder of `sdcomp generate`")
+        ds = journal_dataset(folder)
+    return [(e.split, e.image, e.annotations) for e in ds.entries], dict(ds.categories)
 
 
 def _histogram(values: Sequence[float], bins: int) -> dict:
