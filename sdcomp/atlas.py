@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import logging
 import math
 import os
 import shlex
@@ -46,6 +45,7 @@ from .cli import prog
 from .coloredmesh import ColoredMesh
 from .errors import UserError, run_cli
 from .fileio import atomic_path, atomic_write_bytes
+from .log import get_logger
 from .mesh import MeshSpec, add_mesh_arguments, mesh_spec_from_args
 from .poses import PoseGrid, nearest_pose, tilt_matrix, view_basis
 from .progress import Progress
@@ -382,7 +382,7 @@ def ensure_atlas(mesh: ColoredMesh, config: AtlasConfig, out_dir: str | Path, *,
                     write_contact_sheet(atlas, png)
                 return atlas, False
         except AtlasError as e:  # damaged: say which file, then rebuild it below
-            logging.getLogger("sdcomp.atlas").warning(
+            get_logger(__name__).warning(
                 "the sprite atlas %s is damaged or unreadable (%s); rebuilding it",
                 idx, str(e).split(": rebuild it")[0])
     atlas = build_atlas(mesh, config, workers=workers, progress=progress)
