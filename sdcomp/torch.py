@@ -3,7 +3,8 @@
 Both return ``(image, target)`` in the torchvision detection format, so the models of
 ``torchvision.models.detection`` train on them directly::
 
-    image   (3, H, W) float32 RGB in [0, 1]
+    image   (3, H, W) float32 RGB in [0, 1] (or, with ``image_dtype=torch.uint8``,
+            uint8 RGB in 0..255)
     target  {"boxes":    (N, 4) float32 x1, y1, x2, y2 in pixels (pixel edges: a box
                          [x, y, w, h] of COCO is x1 = x, x2 = x + w),
              "labels":   (N,) int64 COCO category ids (from 1; 0 is torchvision's background),
@@ -14,6 +15,12 @@ Both return ``(image, target)`` in the torchvision detection format, so the mode
 
 Use :func:`collate` as the DataLoader's ``collate_fn`` (images differ in their number of
 objects): a batch is a tuple of images and a tuple of targets.
+
+``image_dtype=torch.uint8`` hands the images over as the 8-bit values they are: a quarter of
+the bytes a DataLoader worker copies into shared memory for the main process (a 416x416
+image: 0.5 MB instead of 2 MB), which on a small machine is where a worker spends most of
+its time after rendering. The model's device then divides by 255
+(``[im.to(device).float().div_(255) for im in images]``): exactly the float32 images.
 
 :class:`SyntheticDetection` renders image ``i`` from (config, i) when asked for it: a dataset
 of any length that needs no disk, identical in every process and on every run. It is safe
@@ -53,16 +60,31 @@ Transforms = Callable[[torch.Tensor, Target], tuple[torch.Tensor, Target]]
 pause_opencv_threads_on_fork()  # DataLoader workers are forked on Linux
 
 
+IMAGE_DTYPES = (torch.float32, torch.uint8)
+
+
+def check_image_dtype(image_dtype: Any) -> torch.dtype:
+    """``image_dtype`` if it is one of :data:`IMAGE_DTYPES`, else a :class:`UserError`."""
+    if not any(image_dtype is d for d in IMAGE_DTYPES):
+        raise UserError(f"image_dtype {image_dtype!r} is not supported: use torch.float32 "
+                        f"(RGB in [0, 1], the default) or torch.uint8 (RGB in 0..255)")
+    return image_dtype
+
+
 def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[int],
               category_ids: Sequence[int], bboxes: Sequence[Sequence[int]],
-              image_id: int) -> tuple[torch.Tensor, Target]:
+              image_id: int, image_dtype: torch.dtype = torch.float32
+              ) -> tuple[torch.Tensor, Target]:
     """The torchvision form of one image: ``image`` (H, W, 3) uint8 RGB, ``instances``
     (H, W) uint16 instance ids; per object its instance id, category id (from 1) and COCO
-    bbox [x, y, w, h] in pixels. See the module docstring for the result."""
+    bbox [x, y, w, h] in pixels. The image comes back as (3, H, W) ``image_dtype``:
+    float32 in [0, 1] or uint8 in 0..255. See the module docstring for the target."""
     # numpy, then torch.from_numpy: no torch kernels (slow for small tensors on few cores)
     h, w = instances.shape
-    chw = np.stack(cv2.split(np.ascontiguousarray(image))).astype(np.float32)
-    chw /= np.float32(255.0)
+    chw = np.stack(cv2.split(np.ascontiguousarray(image)))
+    if check_image_dtype(image_dtype) is torch.float32:
+        chw = chw.astype(np.float32)
+        chw /= np.float32(255.0)
     n = len(instance_ids)
     ids = np.asarray(instance_ids, np.uint16).reshape(n, 1, 1)
     masks = (instances[None] == ids).view(np.uint8)  # (N, H, W), also for N = 0
@@ -166,17 +188,21 @@ class SyntheticDetection(torch.utils.data.Dataset):
         sprites_dir: sprite atlas folder (built there on first use when missing).
         transforms: optional ``transforms(image, target) -> (image, target)``, applied last
             (e.g. torchvision.transforms.v2 with tv_tensors, or your own augmentations).
+        image_dtype: ``torch.float32`` (RGB in [0, 1]) or ``torch.uint8`` (RGB in 0..255,
+            a quarter of the bytes through a DataLoader; see the module docstring).
     """
 
     def __init__(self, config: GeneratorConfig, length: int,
                  sprites_dir: str | Path = DEFAULT_SPRITES,
-                 transforms: Transforms | None = None):
+                 transforms: Transforms | None = None,
+                 image_dtype: torch.dtype = torch.float32):
         if not isinstance(config, GeneratorConfig):
             raise UserError(f"config must be a GeneratorConfig, not {type(config).__name__}")
         self.config = config
         self.length = _check_length(length)
         self.sprites_dir = str(sprites_dir)
         self.transforms = transforms
+        self.image_dtype = check_image_dtype(image_dtype)
         # built here, once: atlases are built (or a bad mesh reported) before any worker
         # starts; forked workers inherit it, pickled copies (spawn) rebuild it on first use
         self._gen: Generator | None = Generator(config, self.sprites_dir, progress=False)
@@ -201,7 +227,7 @@ class SyntheticDetection(torch.utils.data.Dataset):
         objs = frame.objects
         image, target = to_sample(frame.image, frame.instances,
                                   [o.instance_id for o in objs], [o.category_id for o in objs],
-                                  [o.bbox for o in objs], index + 1)
+                                  [o.bbox for o in objs], index + 1, self.image_dtype)
         if self.transforms is not None:
             image, target = self.transforms(image, target)
         return image, target
@@ -222,12 +248,15 @@ class GeneratedCoco(torch.utils.data.Dataset):
         folder: the dataset folder (the generator's ``--out``).
         split: "train", "val" or "all".
         transforms: optional ``transforms(image, target) -> (image, target)``.
+        image_dtype: ``torch.float32`` (RGB in [0, 1]) or ``torch.uint8`` (RGB in 0..255).
     """
 
     def __init__(self, folder: str | Path, split: str = "train",
-                 transforms: Transforms | None = None):
+                 transforms: Transforms | None = None,
+                 image_dtype: torch.dtype = torch.float32):
         from .show import load_dataset  # the checked reader of contact sheets
 
+        self.image_dtype = check_image_dtype(image_dtype)
         ds = load_dataset(folder, split)
         self.folder = Path(folder)
         self.split = split
@@ -258,7 +287,7 @@ class GeneratedCoco(torch.utils.data.Dataset):
         image, target = to_sample(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), instances,
                                   [a["instance_id"] for a in anns],
                                   [a["category_id"] for a in anns],
-                                  [a["bbox"] for a in anns], im["id"])
+                                  [a["bbox"] for a in anns], im["id"], self.image_dtype)
         if self.transforms is not None:
             image, target = self.transforms(image, target)
         return image, target

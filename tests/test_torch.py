@@ -101,6 +101,26 @@ def test_dataloader_two_workers(dataset):
     assert all(same(seen[i], dataset[i]) for i in (0, 13, 29))
 
 
+def test_uint8_images_are_the_float_images_times_255(dataset, sprites_dir):
+    """image_dtype=torch.uint8: the same images as 8-bit values (the float32 ones are them
+    divided by 255, exactly), the same targets, through a 2-worker DataLoader and a spawned
+    worker's pickled copy; anything else is a UserError naming the value."""
+    small = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, image_dtype=torch.uint8)
+    loader = torch.utils.data.DataLoader(torch.utils.data.Subset(small, [0, 13, 29]),
+                                         batch_size=2, num_workers=2, collate_fn=collate,
+                                         timeout=300)
+    seen = [item for images, targets in loader for item in zip(images, targets, strict=True)]
+    seen.append(pickle.loads(pickle.dumps(small))[7])
+    for (image, target), i in zip(seen, (0, 13, 29, 7), strict=True):
+        image_f, target_f = dataset[i]
+        assert image.dtype == torch.uint8 and image.shape == image_f.shape
+        assert torch.equal(image.float().div_(255), image_f)
+        assert same((image_f, target), (image_f, target_f))
+    for bad in ("uint8", torch.float64, np.uint8, None):
+        with pytest.raises(UserError, match=r"image_dtype .* torch\.uint8"):
+            SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, image_dtype=bad)
+
+
 class Marked(torch.Tensor):
     """A tensor subclass (as torchvision's tv_tensors are)."""
 
@@ -189,6 +209,12 @@ def test_generated_coco_matches_on_the_fly(tmp_path, dataset, sprites_dir, fmt):
     for image_id, item in both.items():
         assert same(item, dataset[image_id - 1])  # PNG images: bit-exact
     assert len(GeneratedCoco(out, "all")) == 20
+    image8, t8 = GeneratedCoco(out, "all", image_dtype=torch.uint8)[5]
+    image_f, tf = GeneratedCoco(out, "all")[5]
+    assert image8.dtype == torch.uint8 and torch.equal(image8.float().div_(255), image_f)
+    assert same((image_f, t8), (image_f, tf))
+    with pytest.raises(UserError, match="image_dtype"):
+        GeneratedCoco(out, "all", image_dtype=torch.int32)
     with pytest.raises(UserError, match="does not exist"):
         GeneratedCoco(tmp_path / "nothing", "train")
 
