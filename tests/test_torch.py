@@ -103,8 +103,9 @@ def test_dataloader_two_workers(dataset):
 
 def test_uint8_images_are_the_float_images_times_255(dataset, sprites_dir):
     """image_dtype=torch.uint8: the same images as 8-bit values (the float32 ones are them
-    divided by 255, exactly), the same targets, through a 2-worker DataLoader and a spawned
-    worker's pickled copy; anything else is a UserError naming the value."""
+    divided by 255, exactly), the same targets, through a 2-worker DataLoader and from a
+    pickled copy (what a spawned worker gets); anything else is a UserError naming the
+    value."""
     small = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, image_dtype=torch.uint8)
     loader = torch.utils.data.DataLoader(torch.utils.data.Subset(small, [0, 13, 29]),
                                          batch_size=2, num_workers=2, collate_fn=collate,
