@@ -177,14 +177,21 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
     return Dataset(folder, entries, categories)
 
 
+def _run_config(folder: Path) -> dict:
+    """The run's config as the dataset.json of ``folder`` records it; empty when that
+    cannot be read (missing, not JSON, no config mapping)."""
+    try:
+        config = json.loads((folder / "dataset.json").read_bytes())["config"]
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
+        return {}
+    return config if isinstance(config, dict) else {}
+
+
 def _written_without_coco(folder: Path) -> bool:
     """Whether the dataset.json of ``folder`` says its run wrote no COCO files (False when
     it cannot be read: the COCO files are the dataset)."""
-    try:
-        config = json.loads((folder / "dataset.json").read_bytes())["config"]
-        return "coco" not in str(config["format"]).split(",")
-    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
-        return False
+    config = _run_config(folder)
+    return "format" in config and "coco" not in str(config["format"]).split(",")
 
 
 def journal_dataset(folder: str | Path, split: str = "all") -> Dataset:
@@ -199,9 +206,9 @@ def journal_dataset(folder: str | Path, split: str = "all") -> Dataset:
                for rec in iter_records(journal, offsets, wanted)]
     entries.sort(key=lambda e: (e.id, e.split))
     try:
-        config = json.loads((folder / "dataset.json").read_bytes())["config"]
-        categories = {i + 1: str(o["category"]) for i, o in enumerate(config["objects"])}
-    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
+        categories = {i + 1: str(o["category"])
+                      for i, o in enumerate(_run_config(folder)["objects"])}
+    except (KeyError, TypeError):
         categories = {}
     return Dataset(folder, entries, categories)
 
