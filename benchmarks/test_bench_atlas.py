@@ -6,9 +6,9 @@ import os
 
 import pytest
 
-from sdcomp import bluerov2
-from sdcomp.atlas import AtlasConfig, build_atlas, save_atlas
-from sdcomp.render import render
+from sdcomp.assets import bluerov2
+from sdcomp.atlas.raster import render
+from sdcomp.atlas.store import AtlasConfig, build_atlas, save_atlas
 
 TARGET_S = 30.0
 

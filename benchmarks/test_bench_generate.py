@@ -19,9 +19,9 @@ from pathlib import Path
 
 import pytest
 
-from sdcomp.config import GeneratorConfig
-from sdcomp.generator import Generator
-from sdcomp.writer import RunOptions, run
+from sdcomp.pipeline import Generator
+from sdcomp.run import RunOptions, run
+from sdcomp.scene.config import GeneratorConfig
 
 TARGETS = {"disk_416": 1000.0, "memory_416": 1500.0, "disk_full": 10.0}
 HUGE = 30_000  # pixels: the paper's largest frames, HUGE x HUGE

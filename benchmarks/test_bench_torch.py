@@ -14,9 +14,9 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from sdcomp.config import GeneratorConfig  # noqa: E402
-from sdcomp.generator import Generator  # noqa: E402
-from sdcomp.torch import SyntheticDetection, collate  # noqa: E402
+from sdcomp.pipeline import Generator  # noqa: E402
+from sdcomp.scene.config import GeneratorConfig  # noqa: E402
+from sdcomp.torch_datasets import SyntheticDetection, collate  # noqa: E402
 
 TARGET = 1000.0
 BATCH = 16

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp.coloredmesh import ColoredMesh
+from sdcomp.assets.mesh import ColoredMesh
 
 REPO = Path(__file__).resolve().parents[1]
 REFERENCE = Path(os.environ.get("SDCOMP_REFERENCE", REPO.parent / "shared" / "reference"))

@@ -14,6 +14,8 @@ import os
 import signal
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -21,9 +23,9 @@ import numpy as np
 from pycocotools import mask as mask_utils
 from pycocotools.coco import COCO
 
-from sdcomp.coco import read_journal
+from sdcomp.cli.generate import main
 from sdcomp.errors import run_cli
-from sdcomp.generate import main
+from sdcomp.io.journal import read_journal
 
 REPO = Path(__file__).resolve().parents[1]
 CLI = ("import sys; from sdcomp.errors import run_cli; from sdcomp.generate import main; "
@@ -67,6 +69,49 @@ def finish(proc: subprocess.Popen, timeout: float) -> tuple[int, str, str]:
     return proc.returncode, out, err
 
 
+def wait_until(condition: Callable[[], object], what: str | Callable[[], str],
+               timeout: float = 30.0, interval: float = 0.02):
+    """Poll ``condition()`` until it returns a true value, and return that value; at the
+    deadline (``timeout`` s) fail with an AssertionError saying what was awaited (``what``,
+    or what it returns then). Use it instead of a fixed sleep before checking a state."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            text = what() if callable(what) else what
+            raise AssertionError(f"gave up after {timeout:g} s waiting for {text}")
+        time.sleep(interval)  # the polling interval, not a wait for the condition
+
+
+def live_processes(pgid: int) -> list[int]:
+    """The pids of the processes of process group ``pgid`` (a :func:`popen` run and its
+    workers) that have not ended. A zombie (ended, not yet reaped by whoever adopted it)
+    counts as ended. Reads /proc; elsewhere ``[pgid]`` while any process of the group
+    exists (zombies included)."""
+    proc = Path("/proc")
+    if not (proc / "self").is_dir():
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return []
+        return [pgid]
+    alive = []
+    for entry in proc.iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue  # it ended meanwhile
+        # "pid (comm) state ppid pgrp ...": comm may hold spaces and parentheses
+        state, _, pgrp = stat[stat.rindex(")") + 2:].split()[:3]
+        if int(pgrp) == pgid and state not in ("Z", "X"):
+            alive.append(int(entry.name))
+    return alive
+
+
 def files(root: Path) -> dict[str, bytes]:
     """Every file under ``root`` by relative path."""
     return {p.relative_to(root).as_posix(): p.read_bytes()
@@ -98,7 +143,31 @@ def check_intact(root: Path, *, allow_tmp: bool = False, decode: bool = True) ->
     if (root / "dataset.json").exists():
         meta = json.loads((root / "dataset.json").read_text())
         assert meta["format"] == "sdcomp-dataset"
-    for p in sorted((root / "images").glob("[!.]*")) if (root / "images").exists() else ():
+    _check_images(root / "images", decode)
+    _check_masks(root / "masks", decode)
+    if (root / "records.jsonl").exists():
+        read_journal(root / "records.jsonl")  # raises on a damaged line
+    listed = 0
+    for split in ("train", "val"):
+        path = root / "annotations" / f"instances_{split}.json"
+        if path.exists():
+            listed += _check_coco(root, path, decode)
+    if meta is not None and meta["status"] == "complete":
+        assert listed == meta["counts"]["images"]
+    return listed
+
+
+def _visible_files(folder: Path) -> list[Path]:
+    """The files of ``folder`` whose names do not start with a dot, sorted; none if it is
+    absent."""
+    return sorted(folder.glob("[!.]*")) if folder.exists() else []
+
+
+def _check_images(folder: Path, decode: bool) -> None:
+    """Every image under a final name in ``folder`` is whole: a JPEG from its start marker
+    to its end marker (zero padding allowed) or a PNG to its IEND chunk, and decodes if
+    ``decode``."""
+    for p in _visible_files(folder):
         data = p.read_bytes()
         if p.suffix == ".jpg":
             assert data[:3] == b"\xff\xd8\xff" and data.rstrip(b"\0")[-2:] == b"\xff\xd9", p
@@ -106,41 +175,48 @@ def check_intact(root: Path, *, allow_tmp: bool = False, decode: bool = True) ->
             assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(PNG_END), p
         if decode:
             assert cv2.imread(str(p), cv2.IMREAD_UNCHANGED) is not None, p
-    for p in sorted((root / "masks").glob("[!.]*")) if (root / "masks").exists() else ():
+
+
+def _check_masks(folder: Path, decode: bool) -> None:
+    """Every mask under a final name in ``folder`` is a whole PNG, and (if ``decode``)
+    decodes as 16-bit."""
+    for p in _visible_files(folder):
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(PNG_END), p
         if decode:
             m = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             assert m is not None and m.dtype == np.uint16, p
-    if (root / "records.jsonl").exists():
-        read_journal(root / "records.jsonl")  # raises on a damaged line
-    listed = 0
-    for split in ("train", "val"):
-        path = root / "annotations" / f"instances_{split}.json"
-        if not path.exists():
-            continue
-        coco = _load_coco(path)
-        for iid, im in coco.imgs.items():
-            listed += 1
-            assert (root / "images" / im["file_name"]).is_file(), im["file_name"]
-            mask_path = root / "masks" / im["mask_file"]
-            assert mask_path.is_file(), im["mask_file"]
-            if not decode:
-                continue
-            mask = cv2.imread(str(mask_path), cv2.IMREAD_UNCHANGED)
-            assert mask.shape == (im["height"], im["width"])
-            anns = coco.loadAnns(coco.getAnnIds(imgIds=[iid]))
-            ids = sorted(int(v) for v in np.unique(mask) if v)
-            assert ids == sorted(a["instance_id"] for a in anns), im["file_name"]
-            for a in anns:
-                m = mask == a["instance_id"]
-                assert a["area"] == int(m.sum()) == int(mask_utils.area(a["segmentation"]))
-                ys, xs = np.nonzero(m)
-                assert a["bbox"] == [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
-                                     int(ys.max() - ys.min() + 1)]
-    if meta is not None and meta["status"] == "complete":
-        assert listed == meta["counts"]["images"]
-    return listed
+
+
+def _check_coco(root: Path, path: Path, decode: bool) -> int:
+    """The COCO file ``path`` of the dataset ``root`` loads and names only images and masks
+    that exist; if ``decode``, each mask has its image's size and exactly the instance ids
+    of its annotations, whose areas and boxes match the mask. Returns its number of
+    images."""
+    coco = _load_coco(path)
+    for iid, im in coco.imgs.items():
+        assert (root / "images" / im["file_name"]).is_file(), im["file_name"]
+        mask_path = root / "masks" / im["mask_file"]
+        assert mask_path.is_file(), im["mask_file"]
+        if decode:
+            _check_annotations(coco, iid, im, mask_path)
+    return len(coco.imgs)
+
+
+def _check_annotations(coco: COCO, iid: int, im: dict, mask_path: Path) -> None:
+    """The mask of image ``iid`` (COCO record ``im``) has the image's size and exactly the
+    instance ids of its annotations, each with the area and box of its pixels."""
+    mask = cv2.imread(str(mask_path), cv2.IMREAD_UNCHANGED)
+    assert mask.shape == (im["height"], im["width"])
+    anns = coco.loadAnns(coco.getAnnIds(imgIds=[iid]))
+    ids = sorted(int(v) for v in np.unique(mask) if v)
+    assert ids == sorted(a["instance_id"] for a in anns), im["file_name"]
+    for a in anns:
+        m = mask == a["instance_id"]
+        assert a["area"] == int(m.sum()) == int(mask_utils.area(a["segmentation"]))
+        ys, xs = np.nonzero(m)
+        assert a["bbox"] == [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
+                             int(ys.max() - ys.min() + 1)]
 
 
 def one_line_error(err: str) -> None:

@@ -19,24 +19,23 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp.atlas import (
+from sdcomp.assets.mesh import ColoredMesh
+from sdcomp.atlas.poses import PoseGrid
+from sdcomp.atlas.raster import render
+from sdcomp.atlas.sheet import contact_sheet, write_contact_sheet
+from sdcomp.atlas.store import (
     FORMAT_VERSION,
     AtlasConfig,
     AtlasError,
     atlas_paths,
     build_atlas,
     cache_key,
-    contact_sheet,
     ensure_atlas,
     load_atlas,
     read_index,
     save_atlas,
-    write_contact_sheet,
 )
-from sdcomp.coloredmesh import ColoredMesh
 from sdcomp.errors import UserError
-from sdcomp.poses import PoseGrid
-from sdcomp.render import render
 
 ROOT = Path(__file__).resolve().parents[1]
 GRID = PoseGrid(max_off_nadir=40, off_nadir_step=20, max_error=15)
@@ -194,8 +193,7 @@ def test_index_contents(mesh, atlas, saved):
     np.testing.assert_allclose(index["mesh"]["extents_m"], mesh.extents, atol=1e-6)
     assert index["mesh"]["waterline_m"] == mesh.waterline
     assert index["size_px"] == CONFIG.size and index["supersample"] == CONFIG.supersample
-    assert index["grid"] == {"max_off_nadir": 40, "off_nadir_step": 20, "max_error": 15,
-                             "tilt_max": GRID.tilt_max, "tilt_step": GRID.tilt_step}
+    assert index["grid"] == {"max_off_nadir": 40, "off_nadir_step": 20, "max_error": 15}
     assert [tuple(r) for r in index["rings"]] == GRID.rings()
     poses = npz_arrays(npz)["poses"]
     assert len(index["poses"]) == len(poses)
@@ -484,7 +482,7 @@ def test_cli_build_reuse_info(mesh_file, tmp_path):
 
 
 BAD_FLAGS = [("--size", "0"), ("--supersample", "0"), ("--max-off-nadir", "120"),
-             ("--off-nadir-step", "0"), ("--tilt-max", "40"), ("--workers", "0")]
+             ("--off-nadir-step", "0"), ("--max-error", "50"), ("--workers", "0")]
 
 
 @pytest.mark.parametrize("flag,value", BAD_FLAGS + [("--out", None)],
@@ -513,8 +511,8 @@ def test_cli_bad_flag(flag, value, mesh_file, tmp_path):
 
 @pytest.mark.parametrize("grid", [
     GRID,
-    PoseGrid(max_off_nadir=90, off_nadir_step=30, max_error=20, tilt_max=10, tilt_step=10),
-], ids=["plain", "horizon+tilt"])
+    PoseGrid(max_off_nadir=90, off_nadir_step=30, max_error=20),
+], ids=["plain", "horizon"])
 @pytest.mark.parametrize("extents,waterline", [((0.6, 0.3, 0.2), -0.05),
                                                ((0.2, 0.2, 0.8), -0.4)],
                          ids=["flat", "tall-waterline-at-bottom"])

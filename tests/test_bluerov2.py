@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp import bluerov2
-from sdcomp.render import render
+from sdcomp.assets import bluerov2
+from sdcomp.atlas.raster import render
 
 FOAM = np.array(bluerov2.FOAM)
 VIEWS = {"top": (0.0, 180.0), "side": (90.0, 90.0), "front": (90.0, 0.0)}

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from sdcomp.camera import (
+from sdcomp.errors import UserError
+from sdcomp.scene.camera import (
     PRESETS,
     CameraModel,
     CameraPose,
@@ -16,7 +17,6 @@ from sdcomp.camera import (
     pixel_rays,
     project,
 )
-from sdcomp.errors import UserError
 
 
 @pytest.mark.parametrize("name", list(PRESETS))

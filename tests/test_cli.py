@@ -3,6 +3,7 @@ keys, --quiet/--verbose, and ``sdcomp stats`` on a generated folder."""
 
 from __future__ import annotations
 
+import argparse
 import configparser
 import contextlib
 import importlib
@@ -11,14 +12,16 @@ import json
 import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import cv2
 import pytest
-import tomllib
 
-from sdcomp import atlas, cli, generate, merge, show, stats
-from sdcomp.config import GeneratorConfig
+from sdcomp import cli
+from sdcomp.cli import atlas, generate, merge, show, stats
+from sdcomp.report.stats import dataset_stats, size_class
+from sdcomp.scene.config import GeneratorConfig
 
 from .datasets import cli as run_in_process
 
@@ -70,7 +73,8 @@ def test_missing_optional_command_is_one_clear_line(monkeypatch):
 @pytest.mark.parametrize("name", ["generate", "show", "stats", "merge", "atlas build"])
 def test_every_option_shows_its_default(name):
     if name == "atlas build":
-        parser = atlas.build_parser()._subparsers._group_actions[0].choices["build"]
+        parser = argparse.ArgumentParser(formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        atlas.add_build_arguments(parser)
     else:
         parser = {"generate": generate, "show": show, "stats": stats,
                   "merge": merge}[name].build_parser()
@@ -160,7 +164,7 @@ def test_stats_table_and_figure(small_dataset, tmp_path):
              for s in coco}
     assert rows["images with no objects"][-1] == str(empty["train"] + empty["val"])
     assert rows["objects: bluerov2"][-1] == str(sum(len(c["annotations"]) for c in coco.values()))
-    s = stats.dataset_stats(small_dataset, bins=5)
+    s = dataset_stats(small_dataset, bins=5)
     areas = [a["area"] for c in coco.values() for a in c["annotations"]]
     assert sum(s["sizes"]["bluerov2"].values()) == len(areas)
     assert s["sizes"]["bluerov2"]["small"] == sum(a < 32 ** 2 for a in areas)
@@ -171,7 +175,7 @@ def test_stats_table_and_figure(small_dataset, tmp_path):
     assert sum(s["water"].values()) == len(alts)
     img = cv2.imread(str(png))
     assert img is not None and img.shape[0] > 300 and img.shape[1] > 600
-    assert [stats.size_class(a) for a in (1023, 1024, 9215, 9216)] == [
+    assert [size_class(a) for a in (1023, 1024, 9215, 9216)] == [
         "small", "medium", "medium", "large"]
 
 

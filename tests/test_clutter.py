@@ -9,9 +9,9 @@ import manifold3d as m3
 import numpy as np
 import pytest
 
-from sdcomp import clutter
+from sdcomp.assets import clutter
+from sdcomp.atlas.raster import render
 from sdcomp.errors import UserError
-from sdcomp.render import render
 
 # Stated real-world sizes (x, y, z extents, metres); None where the spec gives no size.
 EXTENTS = {

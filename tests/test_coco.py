@@ -14,17 +14,10 @@ from pycocotools import mask as mask_utils
 from pycocotools.coco import COCO
 from pycocotools.cocoeval import COCOeval
 
-from sdcomp.coco import (
-    Journal,
-    annotation_id,
-    bbox_of,
-    iter_records,
-    mask_to_rle,
-    read_journal,
-    truncate_journal,
-    write_coco,
-)
+from sdcomp.annotate.rle import mask_to_rle
 from sdcomp.errors import UserError
+from sdcomp.io.coco import annotation_id, write_coco
+from sdcomp.io.journal import Journal, iter_records, read_journal, truncate_journal
 
 CATEGORIES = [{"id": 1, "name": "bluerov2", "supercategory": "rov"},
               {"id": 2, "name": "buoy", "supercategory": "object"}]
@@ -58,30 +51,6 @@ def test_mask_to_rle_accepts_non_bool_and_rejects_non_2d():
         mask_to_rle(np.zeros((3, 4, 1), bool))
 
 
-def test_bbox_of_hand_cases():
-    m = np.zeros((10, 12), bool)
-    m[4, 7] = True
-    assert bbox_of(m) == [7, 4, 1, 1]
-    m[2:6, 3:9] = True
-    assert bbox_of(m) == [3, 2, 6, 4]
-    edge = np.zeros((10, 12), bool)
-    edge[0, 5] = edge[9, 0] = edge[3, 11] = True  # touches all four frame edges
-    assert bbox_of(edge) == [0, 0, 12, 10]
-    assert bbox_of(np.ones((3, 5), bool)) == [0, 0, 5, 3]
-    assert all(type(v) is int for v in bbox_of(edge))
-    with pytest.raises(ValueError):
-        bbox_of(np.zeros((4, 4), bool))
-
-
-def test_bbox_of_matches_pycocotools():
-    rng = np.random.default_rng(1)
-    for _ in range(20):
-        m = rng.random((30, 40)) < 0.02
-        if m.any():
-            rle = mask_utils.encode(np.asfortranarray(m, dtype=np.uint8))
-            assert bbox_of(m) == mask_utils.toBbox(rle).astype(int).tolist()
-
-
 def test_annotation_id():
     ids = {annotation_id(i, k) for i in range(300) for k in (1, 2, 3, 500, 999)}
     assert len(ids) == 300 * 5
@@ -105,8 +74,10 @@ def make_record(index: int, split: str, rng: np.random.Generator, h: int = 40, w
     anns = []
     for inst in np.unique(ids[ids > 0]).tolist():
         m = ids == inst
-        anns.append({"instance_id": inst, "category_id": 1 + inst % 2, "bbox": bbox_of(m),
-                     "area": int(m.sum()), "segmentation": mask_to_rle(m), "iscrowd": 0,
+        rle = mask_to_rle(m)
+        bbox = mask_utils.toBbox({**rle, "counts": rle["counts"].encode()}).astype(int).tolist()
+        anns.append({"instance_id": inst, "category_id": 1 + inst % 2, "bbox": bbox,
+                     "area": int(m.sum()), "segmentation": rle, "iscrowd": 0,
                      "pose": {"yaw": float(rng.random()), "range_m": 12.5}})
     return {"index": index, "split": split,
             "image": {"id": index + 1, "file_name": f"{index:06d}.jpg", "width": w, "height": h,
@@ -284,7 +255,9 @@ def test_write_coco_loads_and_is_consistent(tmp_path):
             assert a["image_id"] in coco.imgs
             assert a["id"] == annotation_id(a["image_id"] - 1, a["instance_id"])
             m = coco.annToMask(a)
-            assert int(m.sum()) == a["area"] and bbox_of(m) == a["bbox"]
+            ys, xs = np.nonzero(m)
+            extent = [xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1]
+            assert int(m.sum()) == a["area"] and extent == a["bbox"]
         if split == "train":
             assert 8 in coco.imgs and coco.getAnnIds(imgIds=[8]) == []
     assert total["images"] == 40

@@ -1,7 +1,8 @@
 """The compositor's annotations: pixel size (GSD), occlusion, water, frame edges, masks.
 
 Constructed scenes (nadir camera, no camera effects, no clutter) check the geometry and the
-mask rule of :mod:`sdcomp.compositor` against numbers worked out by hand; sampled scenes
+mask rule of :mod:`sdcomp.render` and :mod:`sdcomp.annotate` against numbers worked out by
+hand; sampled scenes
 check that bbox and area always derive from the instance map, and that rendering is
 deterministic.
 """
@@ -16,14 +17,20 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp.camera import CameraPose, ground_points
-from sdcomp.coloredmesh import ColoredMesh
-from sdcomp.compositor import MASK_THRESHOLD, REDUCE_MAX, lighting
-from sdcomp.config import GeneratorConfig, ObjectSpec
-from sdcomp.generator import Generator
-from sdcomp.mesh import MeshSpec, export_mesh
-from sdcomp.scene import Effects, Placement, Shore, on_land
-from sdcomp.water import attenuation
+from sdcomp.annotate import MASK_THRESHOLD, AnnotationRule
+from sdcomp.assets.export import export_mesh
+from sdcomp.assets.library import MeshSpec
+from sdcomp.assets.mesh import ColoredMesh
+from sdcomp.pipeline import Generator
+from sdcomp.render import effects
+from sdcomp.render.background import REDUCE_MAX
+from sdcomp.render.ground import perspective_sample
+from sdcomp.render.lighting import lighting
+from sdcomp.scene.camera import CameraPose, ground_points
+from sdcomp.scene.config import GeneratorConfig, ObjectSpec
+from sdcomp.scene.sample import object_asset
+from sdcomp.scene.scene import Effects, Placement, Role, Shore, on_land
+from sdcomp.scene.water import attenuation
 
 from .conftest import box_mesh
 
@@ -71,13 +78,17 @@ def rov(sprites_dir) -> Generator:
 # --------------------------------------------------------------------------- helpers
 
 def _obj(model: int, x: float = 0.0, y: float = 0.0, heading: float = 0.0,
-         draft: float = 0.0) -> Placement:
-    return Placement("object", model, x, y, heading, 0.0, 0.0, draft)
+         draft: float = 0.0, roll: float = 0.0, pitch: float = 0.0) -> Placement:
+    """Object ``model`` (its index in the config's objects; the asset key is filled in by
+    :func:`_scene`)."""
+    return Placement(Role.OBJECT, "", model + 1, x, y, heading, roll, pitch, draft)
 
 
 def _scene(gen: Generator, placements, altitude: float = 20.0, turbidity: float = 0.0):
     """Image 0's scene with a nadir camera (heading 0), the given objects, a high sun, no
     effects."""
+    placements = [replace(p, asset=object_asset(gen.config, p.category_id - 1))
+                  for p in placements]
     return replace(gen.scene(0), placements=tuple(placements),
                    camera=CameraPose(altitude, 90.0, 0.0), turbidity=turbidity,
                    attenuation=attenuation(turbidity), effects=NO_EFFECTS, shore=None,
@@ -85,7 +96,12 @@ def _scene(gen: Generator, placements, altitude: float = 20.0, turbidity: float 
 
 
 def _render(gen: Generator, placements, **kw):
-    return gen.compositor.render(_scene(gen, placements, **kw), amodal=True)
+    return _annotated(gen, _scene(gen, placements, **kw))
+
+
+def _annotated(gen: Generator, scene):
+    """``scene`` rendered and annotated with amodal masks."""
+    return gen.render_scene(scene, AnnotationRule(gen.config.min_visible_px, amodal=True))
 
 
 def _find(frame, placement: int):
@@ -109,11 +125,11 @@ def _check_annotations(frame, min_visible_px: int = 1) -> None:
         ys, xs = np.nonzero(m)
         assert o.bbox == (xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1)
         pl = frame.scene.placements[o.placement]
-        assert pl.kind == "object" and o.category_id == pl.model + 1
+        assert pl.role is Role.OBJECT and o.category_id == pl.category_id
         if o.amodal is not None:
             assert o.amodal.shape == m.shape and o.amodal_area == int(o.amodal.sum())
             assert not (m & ~o.amodal).any(), "visible pixels outside the amodal mask"
-    placed = sum(p.kind == "object" for p in frame.scene.placements)
+    placed = sum(p.role is Role.OBJECT for p in frame.scene.placements)
     assert frame.dropped == placed - n
 
 
@@ -160,8 +176,7 @@ def test_mask_turns_with_camera_heading(shapes, heading):
     unchanged (nadir, object on the optical axis)."""
     ref = _render(shapes, [_obj(BOX_MODEL)])
     scene = _scene(shapes, [_obj(BOX_MODEL, heading=heading)])
-    turned = shapes.compositor.render(
-        replace(scene, camera=CameraPose(20.0, 90.0, heading)), amodal=True)
+    turned = _annotated(shapes, replace(scene, camera=CameraPose(20.0, 90.0, heading)))
     _check_annotations(turned)
     (a,), (b,) = ref.objects, turned.objects
     differ = (ref.instances > 0) != (turned.instances > 0)
@@ -176,7 +191,7 @@ def test_oblique_gsd_at_image_centre(shapes):
     alt, pitch = 20.0, 50.0
     scene = _scene(shapes, [_obj(BOX_MODEL, x=alt / math.tan(math.radians(pitch)),
                                  heading=180.0)])
-    frame = shapes.compositor.render(replace(scene, camera=CameraPose(alt, pitch, 0.0)))
+    frame = shapes.render_scene(replace(scene, camera=CameraPose(alt, pitch, 0.0)))
     _check_annotations(frame)
     gsd = alt / math.sin(math.radians(pitch)) / shapes.model.fx
     assert frame.gsd == pytest.approx(gsd, rel=1e-9)
@@ -279,7 +294,7 @@ def test_tilted_box_low_end_hidden_by_turbid_water(shapes):
     """A 2 m box pitched 30 degrees about its waterline centre: the top face runs from
     0.225 cos 30 + sin 30 = 0.70 m above the sea to 0.31 m below it, so murky water hides
     about a quarter of the box from above (as it hides the pyramid's submerged skirt)."""
-    tilted = Placement("object", BOX_MODEL, 0.0, 0.0, 0.0, 0.0, 30.0, 0.0)
+    tilted = _obj(BOX_MODEL, pitch=30.0)
     clear = _render(shapes, [tilted], altitude=10.0, turbidity=0.0)
     murky = _render(shapes, [tilted], altitude=10.0, turbidity=1.0)
     (c,), (m,) = clear.objects, murky.objects
@@ -375,7 +390,7 @@ def test_min_visible_px(rov, rov_frames, sprites_dir):
         kept_any |= any(o.area == limit for o in f.objects)
         dropped_any |= len(want) < len(base.objects)
         empty = none.render(i)
-        placed = sum(p.kind == "object" for p in empty.scene.placements)
+        placed = sum(p.role is Role.OBJECT for p in empty.scene.placements)
         assert empty.objects == [] and empty.dropped == placed > 0
         assert not empty.instances.any()
     assert kept_any and dropped_any
@@ -454,13 +469,11 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
 # --------------------------------------------------------------------------- 8. huge frames
 
 def test_noise_is_added_block_by_block_to_frames_larger_than_the_tile():
-    from sdcomp.compositor import _add_noise
-
     rng = np.random.default_rng(3)
     tile = rng.integers(0, 256, (7, 5, 3), dtype=np.uint8)
     image = rng.integers(0, 256, (23, 17, 3), dtype=np.uint8)
     before = image.copy()
-    out = _add_noise(image, tile, 0.5, np.random.default_rng(11))
+    out = effects.add_noise(image, tile, 0.5, np.random.default_rng(11))
     assert out is image  # in place: no second copy of a huge frame
     offsets = np.random.default_rng(11)
     oy, ox = int(offsets.integers(7)), int(offsets.integers(5))
@@ -470,19 +483,16 @@ def test_noise_is_added_block_by_block_to_frames_larger_than_the_tile():
     want = cv2.addWeighted(before, 1.0, field, 0.5, -64.0)
     assert np.array_equal(out, want)
     small = rng.integers(0, 256, (4, 3, 3), dtype=np.uint8)  # fits: a window, a new array
-    assert _add_noise(small, tile, 0.5, np.random.default_rng(11)) is not small
+    assert effects.add_noise(small, tile, 0.5, np.random.default_rng(11)) is not small
 
 
 def test_huge_frame_blur_is_done_on_a_reduced_copy_in_place(monkeypatch, rov):
-    import sdcomp.compositor as comp
-
-    monkeypatch.setattr(comp, "BLUR_EXACT_MAX", 100)
-    monkeypatch.setattr(comp, "BLUR_WORK_SIZE", 50)
+    monkeypatch.setattr(effects, "BLUR_EXACT_MAX", 100)
+    monkeypatch.setattr(effects, "BLUR_WORK_SIZE", 50)
     rng = np.random.default_rng(0)
     image = rng.integers(0, 256, (150, 200, 3), dtype=np.uint8)  # white noise: all detail
-    scene = rov.scene(0)
     fx = replace(NO_EFFECTS, motion_blur=(24.0, 30.0))
-    out = rov.compositor._finish(image.copy(), replace(scene, effects=fx), rng)
+    out = effects.apply_effects(image.copy(), fx, None, rng)
     assert out.shape == image.shape and out.dtype == np.uint8
     # blurred: the pixel-to-pixel detail is gone, the mean brightness stays
     assert np.abs(np.diff(out.astype(np.int16), axis=1)).mean() < 0.2 * np.abs(
@@ -490,15 +500,15 @@ def test_huge_frame_blur_is_done_on_a_reduced_copy_in_place(monkeypatch, rov):
     assert abs(float(out.mean()) - float(image.mean())) < 2.0
     target = image.copy()
     fx = replace(NO_EFFECTS, defocus_blur=8.0)
-    assert rov.compositor._finish(target, replace(scene, effects=fx), rng) is target
+    assert effects.apply_effects(target, fx, None, rng) is target
 
 
 def test_rgb_to_bgr_in_place_by_bands():
-    from sdcomp.writer import _rgb_to_bgr_in_place
+    from sdcomp.run.record import rgb_to_bgr_in_place
 
     image = np.random.default_rng(1).integers(0, 256, (37, 11, 3), dtype=np.uint8)
     want = image[..., ::-1].copy()
-    assert _rgb_to_bgr_in_place(image, band_bytes=100) is image  # 3 rows per band
+    assert rgb_to_bgr_in_place(image, band_bytes=100) is image  # 3 rows per band
     assert np.array_equal(image, want)
 
 
@@ -507,22 +517,20 @@ def test_long_motion_blur_is_a_line_mean(n):
     """From LINE_TAPS_MIN taps on, motion blur sums shifted frames: along the rows or the
     columns it is a centred box mean with reflected borders (as cv2.blur computes it), a
     flat image stays flat, and along a diagonal it stays close to the dense line kernel."""
-    from sdcomp.compositor import LINE_TAPS_MIN, _motion_blur, _motion_kernel
-
-    assert n >= LINE_TAPS_MIN
+    assert n >= effects.LINE_TAPS_MIN
     rng = np.random.default_rng(n)
     image = rng.integers(0, 256, (60, 90, 3), dtype=np.uint8)
     for angle, size in ((0.0, (n, 1)), (90.0, (1, n)), (180.0, (n, 1))):
         want = cv2.blur(image, size, borderType=cv2.BORDER_REFLECT)
-        got = _motion_blur(image, float(n), angle)
+        got = effects.motion_blur(image, float(n), angle)
         assert got.shape == image.shape and got.dtype == np.uint8
         assert np.abs(got.astype(int) - want).max() <= 1  # rounding only
     flat = np.full((40, 50, 3), 77, np.uint8)
-    assert (_motion_blur(flat, float(n), 33.0) == 77).all()
+    assert (effects.motion_blur(flat, float(n), 33.0) == 77).all()
     smooth = cv2.resize(image[:20, :30], (300, 200), interpolation=cv2.INTER_CUBIC)
-    dense = cv2.filter2D(smooth, -1, _motion_kernel(float(n), 33.0),
+    dense = cv2.filter2D(smooth, -1, effects.motion_kernel(float(n), 33.0),
                          borderType=cv2.BORDER_REFLECT)
-    got = _motion_blur(smooth, float(n), 33.0)
+    got = effects.motion_blur(smooth, float(n), 33.0)
     change = np.abs(dense.astype(int) - smooth).mean()
     assert np.abs(got.astype(int) - dense).mean() < 0.3 * change  # taps up to ~2 px apart
 
@@ -536,9 +544,9 @@ def test_small_frames_render_on_one_opencv_thread(rov, monkeypatch):
     try:
         cv2.setNumThreads(2)
 
-        def spy(scene, amodal):
+        def spy(scene):
             seen.append(cv2.getNumThreads())
-            return real(scene, amodal)
+            return real(scene)
 
         monkeypatch.setattr(rov.compositor, "_render", spy)
         a = rov.compositor.render(rov.scene(3))
@@ -550,7 +558,9 @@ def test_small_frames_render_on_one_opencv_thread(rov, monkeypatch):
         monkeypatch.setattr(rov.compositor, "_render", real)
         cv2.setNumThreads(1)
         b = rov.compositor.render(rov.scene(3))
-        assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
+        assert np.array_equal(a.image, b.image)
+        assert [lay.weight.tobytes() for lay in a.layers] == [
+            lay.weight.tobytes() for lay in b.layers]
     finally:
         cv2.setNumThreads(before)
 
@@ -558,13 +568,11 @@ def test_small_frames_render_on_one_opencv_thread(rov, monkeypatch):
 def test_line_mean_in_bands_equals_one_band(monkeypatch):
     """Bands of rows (with the rows they share reflected only at the frame's edges) give
     the same pixels as one band for the whole frame."""
-    import sdcomp.compositor as comp
-
     image = np.random.default_rng(5).integers(0, 256, (300, 70, 3), dtype=np.uint8)
-    whole = comp._line_mean(image, 17, 63.0)
-    monkeypatch.setattr(comp, "LINE_BAND_BYTES", 1)  # bands of 8 n rows: 3 here
-    assert np.array_equal(comp._line_mean(image, 17, 63.0), whole)
-    assert np.array_equal(comp._line_mean(image[..., 0], 17, 63.0), whole[..., 0])
+    whole = effects.line_mean(image, 17, 63.0)
+    monkeypatch.setattr(effects, "LINE_BAND_BYTES", 1)  # bands of 8 n rows: 3 here
+    assert np.array_equal(effects.line_mean(image, 17, 63.0), whole)
+    assert np.array_equal(effects.line_mean(image[..., 0], 17, 63.0), whole[..., 0])
 
 
 # --------------------------------------------------------------------------- 8. reduced water
@@ -578,21 +586,21 @@ def test_nadir_water_drawn_smaller_looks_the_same(rov, monkeypatch, altitude, tu
     more than REDUCE_MAX times, so the water is drawn that much smaller and magnified: it
     stays within a level or two on average, and a few at the 99th percentile, of the water
     drawn at full size. Land (drawn afterwards, at full size) is identical."""
-    comp = rov.compositor
+    bg = rov.compositor.background(rov.model)
     scene = replace(_scene(rov, [], altitude=altitude, turbidity=turbidity), shore=shore,
                     floor_depth=4.0)
     lit = lighting(scene)
-    assert comp._reduction(scene, lit) == REDUCE_MAX
-    small = comp._background(scene, lit, np.random.default_rng(1)).astype(int)
-    monkeypatch.setattr(comp, "_reduction", lambda *_: 1)
-    full = comp._background(scene, lit, np.random.default_rng(1)).astype(int)
+    assert bg.reduction(scene, lit) == REDUCE_MAX
+    small = bg.draw(scene, lit, np.random.default_rng(1)).astype(int)
+    monkeypatch.setattr(bg, "reduction", lambda *_: 1)
+    full = bg.draw(scene, lit, np.random.default_rng(1)).astype(int)
     diff = np.abs(small - full)
     assert abs(float((small - full).mean())) < 0.25
     assert float(diff.mean()) < 1.5 and np.percentile(diff, 99) <= 8
     if shore is not None:
         h, w = full.shape[:2]
         v, u = np.mgrid[0:h, 0:w] + 0.5
-        pts, _ = ground_points(comp.model, scene.camera, u, v)
+        pts, _ = ground_points(rov.model, scene.camera, u, v)
         land = on_land(shore, pts[..., 0], pts[..., 1]).astype(np.uint8)
         inside = cv2.erode(land, np.ones((15, 15), np.uint8)) > 0  # off the foam line
         assert inside.mean() > 0.1
@@ -602,13 +610,13 @@ def test_nadir_water_drawn_smaller_looks_the_same(rov, monkeypatch, altitude, tu
 def test_water_drawn_full_size_where_its_texture_is_fine(rov):
     """Low (the texture's texels about one pixel), oblique, or on the user's photos: the
     water is drawn at full size."""
-    comp = rov.compositor
+    bg = rov.compositor.background(rov.model)
     low = _scene(rov, [], altitude=10.0)
-    assert comp._reduction(low, lighting(low)) == 1
+    assert bg.reduction(low, lighting(low)) == 1
     oblique = replace(_scene(rov, []), camera=CameraPose(20.0, 60.0, 0.0))
-    assert comp._reduction(oblique, lighting(oblique)) == 1
+    assert bg.reduction(oblique, lighting(oblique)) == 1
     high = _scene(rov, [], altitude=40.0)
-    assert comp._reduction(high, lighting(high)) == REDUCE_MAX
+    assert bg.reduction(high, lighting(high)) == REDUCE_MAX
 
 
 # --------------------------------------------------------------------------- 9. sprite levels
@@ -616,8 +624,8 @@ def test_water_drawn_full_size_where_its_texture_is_fine(rov):
 def test_sprite_levels_are_box_filters_of_the_atlas(rov):
     """Level L of a pose (made by halving level L - 1) is the atlas's premultiplied
     channels averaged over 2**L x 2**L blocks, whatever order the levels are asked in."""
-    src = rov.compositor.objects[0]
-    base = src._base(5).astype(np.float64)
+    src = rov.compositor.assets.sprites["bluerov2"]
+    base = src.base(5).astype(np.float64)
     for level in (3, 1, 2, 5):
         n = src.size >> level
         block = base.reshape(n, 1 << level, n, 1 << level, 8).mean(axis=(1, 3))
@@ -632,11 +640,11 @@ def test_warm_prepares_everything_a_416_frame_uses(sprites_dir):
     cold = Generator(config, sprites_dir)
     warm = Generator(config, sprites_dir)
     warm.warm()
-    sources = warm.compositor.objects + warm.compositor.clutter
+    sources = list(warm.compositor.assets.sprites.values())
     assert len(sources) > 1
 
     def entries() -> int:
-        return sum(len(s._small) + len(s._large) for s in sources)
+        return sum(s.cached() for s in sources)
 
     before = entries()
     for i in range(40):
@@ -651,7 +659,7 @@ def test_texture_rows_are_the_texture_at_each_ground_point(rov):
     """Texture.sample_rows (one ground line per row) equals sampling every point
     (x0 + scale_i u_j, y0 + y_i) by itself, wrapped into the tile's period, to within a
     level (the sampling position is rounded to 1/32 texel either way)."""
-    tile = rov.compositor.waves[1]
+    tile = rov.compositor.assets.textures.waves[1]
     rng = np.random.default_rng(4)
     scale = rng.uniform(2.0, 40.0, 50)
     u = np.linspace(-0.7, 0.7, 90)
@@ -671,11 +679,10 @@ def test_texture_rows_are_the_texture_at_each_ground_point(rov):
 def test_oblique_view_rows_above_the_horizon_and_far_away_are_the_mean(rov):
     """Looking 15 degrees down, rows above the horizon and rows whose pixels span many
     texels are the tile's mean colour; near rows carry the texture."""
-    comp = rov.compositor
-    tile = comp.waves[0]
-    out = comp._perspective_sample(tile, CameraPose(20.0, 15.0, 0.0), 3.0, 7.0)
+    tile = rov.compositor.assets.textures.waves[0]
+    out = perspective_sample(rov.model, 20.0, 15.0, tile, 3.0, 7.0)
     mean = np.clip(tile.mean + 0.5, 0, 255).astype(np.uint8)
-    horizon = comp.model.height / 2 - comp.model.fy * math.tan(math.radians(15.0))
+    horizon = rov.model.height / 2 - rov.model.fy * math.tan(math.radians(15.0))
     assert 50 < horizon < 150
     assert (out[:int(horizon)] == mean).all()
     assert (out[int(horizon) + 1:int(horizon) + 4] == mean).all()  # far: faded

@@ -21,11 +21,11 @@ import trimesh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sdcomp.atlas import AtlasConfig, AtlasError, ensure_atlas, load_atlas
-from sdcomp.backgrounds import MAX_PIXELS, Backgrounds
+from sdcomp.assets.meshfile import load_mesh_file
+from sdcomp.atlas.poses import PoseGrid
+from sdcomp.atlas.store import AtlasConfig, AtlasError, ensure_atlas, load_atlas
 from sdcomp.errors import UserError
-from sdcomp.meshfile import load_mesh_file
-from sdcomp.poses import PoseGrid
+from sdcomp.render.photos import MAX_PIXELS, Backgrounds
 
 from .conftest import box_mesh
 from .datasets import check_intact, cli, one_line_error

@@ -21,8 +21,9 @@ from pathlib import Path
 
 import pytest
 
-from sdcomp import coco, writer
-from sdcomp.coco import Journal, read_journal
+from sdcomp.io import coco
+from sdcomp.io.journal import Journal, read_journal
+from sdcomp.util import files
 
 from .datasets import (
     CLI,
@@ -30,8 +31,10 @@ from .datasets import (
     check_intact,
     finish,
     generate,
+    live_processes,
     one_line_error,
     popen,
+    wait_until,
 )
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
@@ -73,6 +76,7 @@ def kill_trial(out: Path, sprites: Path, sig: int, delay: float, group: bool) ->
     Returns {"fault": whether the run was still going when the signal came, "rc": ...}."""
     proc = popen(CLI, [*BASE, "--out", out, "--sprites", sprites, "--workers", 2,
                        "--no-progress"])
+    # not a wait for a condition: the signal lands at a random moment of the run on purpose
     time.sleep(delay)
     fault = proc.poll() is None
     if fault:
@@ -82,7 +86,10 @@ def kill_trial(out: Path, sprites: Path, sig: int, delay: float, group: bool) ->
             fault = False
     rc, _, err = finish(proc, timeout=60)
     if sig == signal.SIGKILL and not group:
-        time.sleep(0.5)  # orphaned workers notice at their next image and stop
+        # orphaned workers notice at their next image and stop
+        wait_until(lambda: not live_processes(proc.pid),
+                   lambda: f"the orphaned workers to stop (still running: "
+                           f"{live_processes(proc.pid)})")
     if fault and (out / "dataset.json").exists() and sig != signal.SIGKILL:
         # the run had begun (a signal during Python's start-up may show a traceback): it
         # stopped cleanly, an "interrupted" dataset, no temporary files, no traceback
@@ -148,10 +155,13 @@ def test_sigterm_stops_workers_and_leaves_no_temporary_file(tmp_path, sprites_di
     argv = [*BASE, "--n", "2000", "--out", out, "--sprites", sprites_dir, "--workers", 2,
             "--no-progress"]
     proc = popen(CLI, argv)
-    deadline = time.monotonic() + 30
-    while not list((out / "images").glob("*.jpg")) if (out / "images").exists() else True:
-        assert time.monotonic() < deadline and proc.poll() is None
-        time.sleep(0.05)
+    try:
+        wait_until(lambda: has_image(out, proc), "the run's first image in images/")
+    except AssertionError:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)  # leave no run behind
+            proc.communicate()
+        raise
     os.kill(proc.pid, signal.SIGTERM)
     rc, _, err = finish(proc, timeout=30)
     assert rc == 130, err
@@ -160,8 +170,16 @@ def test_sigterm_stops_workers_and_leaves_no_temporary_file(tmp_path, sprites_di
     check_intact(out)
     # the workers are gone: nothing of this run changes the folder any more
     before = files_and_sizes(out)
-    time.sleep(0.5)
+    wait_until(lambda: not live_processes(proc.pid),
+               lambda: f"the workers to end (still running: {live_processes(proc.pid)})")
     assert files_and_sizes(out) == before
+
+
+def has_image(out: Path, proc: subprocess.Popen) -> bool:
+    """Whether the run ``proc`` has written an image into ``out``; AssertionError if it
+    ended without one."""
+    assert proc.poll() is None, f"the run ended (exit status {proc.returncode}) before an image"
+    return (out / "images").exists() and bool(list((out / "images").glob("*.jpg")))
 
 
 def files_and_sizes(root: Path) -> dict:
@@ -171,15 +189,15 @@ def files_and_sizes(root: Path) -> dict:
 # --------------------------------------------------------------------------- a worker dies
 
 DIE = ("import os, signal, sys\n"
-       "from sdcomp import writer\n"
+       "from sdcomp.run import local as writer\n"
        "MODE = sys.argv.pop(1)\n"
        "real = writer.make_record\n"
-       "def fatal(gen, index, out):\n"
+       "def fatal(gen, index, *rest):\n"
        "    if index == 77:\n"
        "        if MODE == 'kill':\n"
        "            os.kill(os.getpid(), signal.SIGKILL)\n"
        "        os._exit(3)\n"
-       "    return real(gen, index, out)\n"
+       "    return real(gen, index, *rest)\n"
        "writer.make_record = fatal\n" + CLI)
 
 
@@ -205,7 +223,7 @@ def test_dead_worker_is_named_with_its_image_and_the_run_stops(how, tmp_path, sp
 def _fail_writes(monkeypatch, after: int, err: int, match: str = "") -> None:
     """Image/mask writes whose path contains ``match`` fail with errno ``err`` once
     ``after`` of them succeeded (in each worker process: they inherit the patch)."""
-    real = writer._write
+    real = files.write_file
     count = [0]
 
     def flaky(path, data):
@@ -218,7 +236,7 @@ def _fail_writes(monkeypatch, after: int, err: int, match: str = "") -> None:
             count[0] += 1
         return real(path, data)
 
-    monkeypatch.setattr(writer, "_write", flaky)
+    monkeypatch.setattr(files, "write_file", flaky)
 
 
 @pytest.mark.parametrize("err,workers,match", [(errno.ENOSPC, 2, "images"),
@@ -247,9 +265,9 @@ def test_real_write_removes_its_temporary_file_on_error(tmp_path, monkeypatch):
     def no_replace(a, b):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(a))
 
-    monkeypatch.setattr(writer.os, "replace", no_replace)
+    monkeypatch.setattr(files.os, "replace", no_replace)
     with pytest.raises(OSError):
-        writer._write(target, b"data")
+        files.write_file(target, b"data")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -257,7 +275,7 @@ def test_annotation_files_that_cannot_be_written(tmp_path, sprites_dir, referenc
                                                  monkeypatch):
     """The final COCO write fails: one line, the last checkpoint's files stay whole."""
     out = tmp_path / "coco_full"
-    real = writer.write_coco
+    real = coco.write_coco
     calls = [0]
 
     def flaky(path, *a, **k):
@@ -266,7 +284,7 @@ def test_annotation_files_that_cannot_be_written(tmp_path, sprites_dir, referenc
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
         return real(path, *a, **k)
 
-    monkeypatch.setattr(writer, "write_coco", flaky)
+    monkeypatch.setattr(coco, "write_coco", flaky)
     rc, _, stderr = gen(out, sprites_dir)
     assert rc == 2, stderr
     one_line_error(stderr)
@@ -304,7 +322,7 @@ def test_journal_append_cut_short_leaves_no_half_record(tmp_path):
         assert path.read_bytes() == before
         j.append([{"index": 3}])  # space is back: appends go on, on a fresh line
     assert sorted(read_journal(path)) == [0, 3]
-    assert coco.read_journal(path)  # no damaged line
+    assert read_journal(path)  # no damaged line
 
 
 @pytest.fixture

@@ -27,21 +27,19 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.errors import InvalidArgument
 
-from sdcomp.config import (
-    FLOAT_BOUNDS,
-    INT_BOUNDS,
-    PARAM_BOUNDS,
-    GeneratorConfig,
-    load_toml,
-)
 from sdcomp.errors import UserError
-from sdcomp.writer import RunOptions, run
+from sdcomp.run import RunOptions, run
+from sdcomp.scene.config import GeneratorConfig, load_toml
+from sdcomp.scene.settings import setting_of
 
 from .datasets import check_intact
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
 FIELDS = [f.name for f in fields(GeneratorConfig)]
+#: name: (lo, hi) of every field with numeric bounds (params, floats, ints)
+BOUNDS = {f.name: (setting_of(f).lo, setting_of(f).hi) for f in fields(GeneratorConfig)
+          if setting_of(f).kind in ("param", "float", "int")}
 CI = settings(max_examples=60, deadline=None, derandomize=True,
               suppress_health_check=[HealthCheck.too_slow])
 CI_RUNS = settings(max_examples=8, deadline=None, derandomize=True,
@@ -90,8 +88,8 @@ def field_value(name: str):
     }
     if name in special:
         return st.one_of(special[name], values)
-    if name in PARAM_BOUNDS or name in FLOAT_BOUNDS or name in INT_BOUNDS:
-        lo, hi = (PARAM_BOUNDS.get(name) or FLOAT_BOUNDS.get(name) or INT_BOUNDS[name])[:2]
+    if name in BOUNDS:
+        lo, hi = BOUNDS[name]
         near = st.floats(lo - abs(hi - lo) * 0.2 - 1, hi + abs(hi - lo) * 0.2 + 1)
         return st.one_of(near, near.map(round), st.builds(lambda a, b: f"{a}-{b}", near, near),
                          st.lists(near, max_size=3), values)
@@ -191,10 +189,10 @@ def _run_strategy(max_side: int):
     """Configs of a run: small n, extremes of geometry, counts and effects."""
     side = st.one_of(st.integers(1, 8), st.integers(9, max_side))
     param = lambda name: st.one_of(  # noqa: E731
-        st.floats(*PARAM_BOUNDS[name][:2]),
-        st.sampled_from(PARAM_BOUNDS[name][:2]),
-        st.builds(lambda a, b: f"{min(a, b)}-{max(a, b)}", st.floats(*PARAM_BOUNDS[name][:2]),
-                  st.floats(*PARAM_BOUNDS[name][:2])))
+        st.floats(*BOUNDS[name]),
+        st.sampled_from(BOUNDS[name]),
+        st.builds(lambda a, b: f"{min(a, b)}-{max(a, b)}", st.floats(*BOUNDS[name]),
+                  st.floats(*BOUNDS[name])))
     return st.fixed_dictionaries({
         "n": st.integers(1, 3), "seed": st.integers(0, 2**63 - 1), "width": side,
         "height": side,

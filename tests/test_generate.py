@@ -27,10 +27,10 @@ from pycocotools.coco import COCO
 from pycocotools.cocoeval import COCOeval
 
 import sdcomp
-from sdcomp import writer
-from sdcomp.config import GeneratorConfig
-from sdcomp.generate import build_parser, main
-from sdcomp.writer import split_of
+from sdcomp.cli.generate import build_parser, main
+from sdcomp.run import local as writer
+from sdcomp.run.record import split_of
+from sdcomp.scene.config import GeneratorConfig
 
 from .datasets import cli, generate
 
@@ -351,11 +351,11 @@ def test_interrupted_run_resumes_to_identical_dataset(dataset_a, tmp_path, sprit
     real = writer.make_record
     calls = []
 
-    def flaky(gen_, index, out):
+    def flaky(gen_, index, *rest):
         if len(calls) == 35:  # Ctrl-C while rendering image 35 (the second chunk)
             raise KeyboardInterrupt
         calls.append(index)
-        return real(gen_, index, out)
+        return real(gen_, index, *rest)
 
     monkeypatch.setattr(writer, "make_record", flaky)
     rc, _, err = gen(b, sprites_dir)

@@ -14,11 +14,11 @@ import pytest
 import trimesh
 from PIL import Image
 
-from sdcomp import bluerov2
-from sdcomp.coloredmesh import ColoredMesh
-from sdcomp.errors import UserError
-from sdcomp.mesh import MeshSpec, export_mesh
-from sdcomp.meshfile import (
+from sdcomp.assets import bluerov2
+from sdcomp.assets.export import export_mesh
+from sdcomp.assets.library import MeshSpec
+from sdcomp.assets.mesh import ColoredMesh
+from sdcomp.assets.meshfile import (
     DEFAULT_COLOR,
     DEFAULT_WATERLINE_FRACTION,
     MAX_EXTENT_M,
@@ -26,6 +26,7 @@ from sdcomp.meshfile import (
     UNITS,
     load_mesh_file,
 )
+from sdcomp.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = np.array([2.0, 1.0, 0.5])  # the test box: length x width x height in the file's units

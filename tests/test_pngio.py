@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from sdcomp import pngio
-from sdcomp.pngio import decode_png16, encode_png16
+from sdcomp.io import png as pngio
+from sdcomp.io.png import decode_png16, encode_png16
 
 
 def cv2_read(data: bytes) -> np.ndarray:

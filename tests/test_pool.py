@@ -11,13 +11,16 @@ import time
 import pytest
 
 from sdcomp.errors import UserError
-from sdcomp.pool import WorkerDied, imap_ordered, note
+from sdcomp.util import pool
+from sdcomp.util.pool import WorkerDied, imap_ordered, note
+
+from .datasets import wait_until
 
 
 def square(task):
     note(task)
     if task % 3 == 0:
-        time.sleep(0.01)  # finish out of order
+        time.sleep(0.01)  # models a slower task (finish out of order), not a wait
     return task * task, os.getpid()
 
 
@@ -43,8 +46,17 @@ def dies_at_once(task):
 
 def slow(task):
     note(task)
-    time.sleep(0.2)
+    time.sleep(0.2)  # models a task that takes a while, not a wait for a condition
     return os.getpid()
+
+
+def ended(pid: int) -> bool:
+    """Whether process ``pid`` has ended and been reaped (a zombie still exists)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
 
 
 def test_results_come_in_order_from_several_processes():
@@ -77,10 +89,15 @@ def test_leaving_early_stops_the_workers():
     it = imap_ordered(slow, list(range(20)), 2)
     pid = next(it)
     it.close()
-    time.sleep(0.2)
-    with pytest.raises(ProcessLookupError):  # ended and reaped (no zombie either)
-        os.kill(pid, 0)
+    # ended and reaped (no zombie either)
+    wait_until(lambda: ended(pid), f"worker {pid} to end and be reaped after close()")
 
 
-def test_note_outside_a_worker_does_nothing():
-    note(3)
+def test_note_outside_a_worker_does_nothing(monkeypatch):
+    exits: list = []
+    monkeypatch.setattr(os, "_exit", exits.append)  # note() must not end this process
+    before = dict(pool._SELF)
+    assert before == {}  # this process is no pool worker
+    assert note(3) is None
+    assert pool._SELF == before  # no slot, no shared array, no parent recorded
+    assert exits == []

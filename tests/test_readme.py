@@ -10,8 +10,8 @@ from pathlib import Path
 
 import yaml
 
-from sdcomp import yolo
-from sdcomp.config import GeneratorConfig
+from sdcomp.io import yolo
+from sdcomp.scene.config import GeneratorConfig
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

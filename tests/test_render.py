@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from sdcomp.coloredmesh import ColoredMesh
-from sdcomp.poses import view_basis
-from sdcomp.render import render
+from sdcomp.assets.mesh import ColoredMesh
+from sdcomp.atlas.poses import view_basis
+from sdcomp.atlas.raster import render
 
 from .conftest import box_mesh
 

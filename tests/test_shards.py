@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from sdcomp import merge as merge_mod
-from sdcomp import writer
-from sdcomp.shards import parse_shard, shard_folder, shard_range
+from sdcomp.cli import merge as merge_mod
+from sdcomp.run import local as writer
+from sdcomp.run.shards import parse_shard, shard_folder, shard_range
 
 from .datasets import assert_identical, check_intact, cli, files, generate, one_line_error
 
@@ -98,10 +98,10 @@ def test_failed_shard_is_finished_by_resume_alone(plain, tmp_path, sprites_dir, 
         assert gen(dirs[k], sprites_dir, "--shard", f"{k}/3")[0] == 0
     real = writer.make_record
 
-    def dies(gen_, index, out):
+    def dies(gen_, index, *rest):
         if index == 20:
             raise KeyboardInterrupt  # the job was stopped (SLURM sends SIGTERM: the same)
-        return real(gen_, index, out)
+        return real(gen_, index, *rest)
 
     monkeypatch.setattr(writer, "make_record", dies)
     rc, _, err = gen(dirs[1], sprites_dir, "--shard", "1/3")

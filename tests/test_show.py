@@ -11,17 +11,17 @@ import cv2
 import numpy as np
 import pytest
 
+from sdcomp.cli.show import main
 from sdcomp.errors import UserError, run_cli
-from sdcomp.pngio import encode_png16
-from sdcomp.show import (
+from sdcomp.io.layout import load_dataset
+from sdcomp.io.png import encode_png16
+from sdcomp.report.sheet import (
     PAD,
     PALETTE,
     band_height,
     caption,
     category_colour,
     contact_sheet,
-    load_dataset,
-    main,
     render_cell,
     select_indices,
 )

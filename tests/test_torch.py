@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 import torch
 
-from sdcomp.config import GeneratorConfig
+from sdcomp.cli.generate import main
 from sdcomp.errors import UserError, run_cli
-from sdcomp.generate import main
-from sdcomp.generator import Generator
-from sdcomp.torch import GeneratedCoco, SyntheticDetection, collate
+from sdcomp.pipeline import Generator
+from sdcomp.scene.config import GeneratorConfig
+from sdcomp.torch_datasets import GeneratedCoco, SyntheticDetection, collate
 
 # 96 px, low altitude: the BlueROV2 is tens of pixels; 0-3 objects, so some images are empty
 CONFIG = GeneratorConfig(width=96, height=96, clutter=0.0, altitude="3-6", count="0-3",

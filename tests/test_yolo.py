@@ -14,9 +14,9 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sdcomp.pngio import decode_png16
-from sdcomp.stats import dataset_stats
-from sdcomp.yolo import box_line, data_yaml, mask_polygon
+from sdcomp.io.png import decode_png16
+from sdcomp.io.yolo import box_line, data_yaml, mask_polygon
+from sdcomp.report.stats import dataset_stats
 
 from .datasets import cli
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from ..cli import prog
 from ..errors import UserError, run_cli
-from ..generator import DEFAULT_SPRITES
+from ..pipeline import DEFAULT_SPRITES
 from .detector import BACKBONES
 from .grid import PRESETS, GridSpec, preset
 from .train import OPTIMIZERS

@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import __version__
-from ..config import GeneratorConfig, preset
 from ..errors import UserError
-from ..writer import RunOptions, run
+from ..run.local import RunOptions, run
+from ..scene.config import GeneratorConfig, preset
 
 CATEGORY = "bluerov2"
 CACHE_VERSION = 1
@@ -154,7 +154,7 @@ class EvalSet:
 
     def coco_for_category(self) -> dict:
         """The ground truth restricted to the scored category."""
-        anns = []
+        anns: list[dict] = []
         for a in self.coco["annotations"]:
             if a.get("category_id") != self.category_id:
                 continue
@@ -183,7 +183,9 @@ def read_coco(path: Path, what: str) -> dict:
 def merged_split(folders: list[Path], split: str) -> dict:
     """One COCO dict of ``split`` ("train" or "val") over several dataset folders; image ids
     are renumbered from 1 and each image gets its absolute ``path``."""
-    images, anns, cats = [], [], None
+    images: list[dict] = []
+    anns: list[dict] = []
+    cats = None
     for folder in folders:
         data = read_coco(folder / "annotations" / f"instances_{split}.json", "dataset")
         cats = cats or data["categories"]

@@ -86,7 +86,8 @@ def evaluate_detector(model, test, device: str = "cpu", batch_size: int = 4) -> 
     from .detector import predict
     from .train import read_image
 
-    ids, results = [], []
+    ids: list[int] = []
+    results: list[dict] = []
     images = test.coco["images"]
     for k in range(0, len(images), batch_size):
         chunk = images[k:k + batch_size]

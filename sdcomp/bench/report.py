@@ -18,9 +18,10 @@ import io
 import json
 import textwrap
 from pathlib import Path
+from typing import Any
 
 from ..errors import UserError
-from ..fileio import atomic_write_bytes
+from ..util.files import atomic_write_bytes
 from .evaluate import METRICS
 from .grid import PAPER, PAPER_METRICS, TABLES
 from .runner import read_cell
@@ -103,8 +104,10 @@ def markdown(meta: dict, rows: dict[tuple[int, str], dict]) -> str:
     return "\n".join(lines)
 
 
-def _series(rows, table: int, metric: str):
-    out = []
+def _series(rows, table: int, metric: str) -> list[Any]:
+    """Our figures of ``metric`` (x 100) per row of ``table``; None where there is none
+    (matplotlib leaves a gap)."""
+    out: list[Any] = []
     for label, _ in TABLES[table].rows:
         data = rows.get((table, label))
         v = None if data is None else data["test"]["metrics"][metric]
@@ -128,8 +131,18 @@ def plots(meta: dict, rows: dict, folder: Path) -> list[Path]:
     tables = set(meta.get("grid", {}).get("tables", []))
     label = meta.get("test_set", "?")
     written = []
-    # AP vs altitude: Tables 1 and 4
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for name, draw in zip(PLOTS, (_plot_altitude, _plot_water, _plot_size), strict=True):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        draw(ax, rows, tables, label)
+        _save(fig, folder / name)
+        written.append(folder / name)
+        plt.close(fig)
+    return written
+
+
+def _plot_altitude(ax, rows: dict, tables: set, label: str) -> None:
+    """AP vs altitude (Tables 1 and 4): our AP50 and AP of the tables in ``tables`` (x 100,
+    per metre of altitude), the paper's AP50 dashed; ``label`` names the test set."""
     for t, colour in ((1, "tab:blue"), (4, "tab:orange")):
         alts = [c.altitude for _, c in TABLES[t].rows]
         n = TABLES[t].rows[0][1].n
@@ -141,11 +154,11 @@ def plots(meta: dict, rows: dict, folder: Path) -> list[Path]:
         ax.plot(alts, [p[1] for p in paper], "o--", color=colour, alpha=0.6, mfc="none",
                 label=f"paper AP50, {n}")
     _finish(ax, "altitude (m)", "AP x 100", f"AP vs altitude (test: {label})")
-    _save(fig, folder / PLOTS[0])
-    written.append(folder / PLOTS[0])
-    plt.close(fig)
-    # AP50 by water colour: Tables 2 and 5
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+
+
+def _plot_water(ax, rows: dict, tables: set, label: str) -> None:
+    """AP50 by water colour (Tables 2 and 5): bars of ours (x 100; none for a table not in
+    ``tables``) beside the paper's, hatched; ``label`` names the test set."""
     bars = [(t, who) for t in (2, 5) for who in ("ours", "paper")]
     width = 0.8 / len(bars)
     for k, (t, who) in enumerate(bars):
@@ -160,11 +173,12 @@ def plots(meta: dict, rows: dict, folder: Path) -> list[Path]:
                alpha=0.6 if who == "paper" else 1.0)
     ax.set_xticks(range(3), [w for w, _ in TABLES[2].rows])
     _finish(ax, "water colour", "AP50 x 100", f"AP50 by water colour (test: {label})")
-    _save(fig, folder / PLOTS[1])
-    written.append(folder / PLOTS[1])
-    plt.close(fig)
-    # AP vs dataset size: Table 3
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+
+
+def _plot_size(ax, rows: dict, tables: set, label: str) -> None:
+    """AP and AP50 vs dataset size (Table 3, log x: the paper's image counts, +G rows
+    marked apart), ours (x 100, if table 3 is in ``tables``) and the paper's dashed;
+    ``label`` names the test set."""
     sizes = [c.n + c.green for _, c in TABLES[3].rows]
     plain = [i for i, (_, c) in enumerate(TABLES[3].rows) if not c.green]
     green = [i for i, (_, c) in enumerate(TABLES[3].rows) if c.green]
@@ -184,10 +198,6 @@ def plots(meta: dict, rows: dict, folder: Path) -> list[Path]:
     ax.minorticks_off()
     _finish(ax, "training images (paper's count; + 137 green for +G)", "AP x 100",
             f"AP vs dataset size (test: {label})")
-    _save(fig, folder / PLOTS[2])
-    written.append(folder / PLOTS[2])
-    plt.close(fig)
-    return written
 
 
 def _finish(ax, xlabel: str, ylabel: str, title: str) -> None:

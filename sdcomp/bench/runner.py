@@ -20,14 +20,15 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from .. import __version__
 from ..errors import UserError
-from ..fileio import atomic_write_bytes
+from ..util.files import atomic_write_bytes
 from . import require_torch
 from .datasets import CacheOptions, EvalSet, config_key, ensure_dataset, merged_split, val_set
 from .evaluate import evaluate_detector
-from .grid import Cell, GridSpec
+from .grid import Cell, DatasetPart, GridSpec
 from .train import train, train_key, training_items
 
 FORMAT = "sdcomp-bench-cell"
@@ -82,11 +83,7 @@ def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
             "test_set") == test.label:
         return old
     t0 = time.perf_counter()
-    folders, reused = [], []
-    for part, config in zip(parts, configs, strict=True):
-        folder, was_cached = ensure_dataset(config, part.name, ctx.cache)
-        folders.append(folder)
-        reused.append(was_cached)
+    folders, reused = _ensure_datasets(parts, configs, ctx.cache)
     t_data = time.perf_counter() - t0
     items = training_items(merged_split(folders, "train"))
     ckpt_file = checkpoint_path(ctx.out, cell.id)
@@ -96,38 +93,64 @@ def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
     val = evaluate_detector(model, val_set(folders), ctx.device, ctx.eval_batch)
     result = evaluate_detector(model, test, ctx.device, ctx.eval_batch)
     t_eval = time.perf_counter() - t0
-    torch, torchvision = require_torch()
-    losses = history["losses"]
     data = {
         "format": FORMAT, "cell": cell.id, "rows": [list(r) for r in rows or []],
         "grid": grid.name, "train_key": key,
-        "config": {"cell": {"altitude": cell.altitude, "water": cell.water,
-                            "paper_images": cell.n, "green_images": cell.green},
-                   "train": grid.train.to_dict(), "image_size": grid.image_size,
-                   "datasets": [{"name": p.name, "images": p.n, "seed": p.seed,
-                                 "key": k, "folder": str(f), "reused": r,
-                                 "generator": c.to_dict()}
-                                for p, c, k, f, r in zip(parts, configs, keys, folders, reused,
-                                                         strict=True)]},
+        "config": _config_record(cell, grid, parts, configs, keys, folders, reused),
         "seed": {"datasets": [p.seed for p in parts], "train": grid.train.seed},
-        "device": ctx.device, "device_name": _device_name(torch, ctx.device),
-        "threads": torch.get_num_threads(),
-        "versions": {"sdcomp": __version__, "torch": torch.__version__,
-                     "torchvision": torchvision.__version__,
-                     "python": sys.version.split()[0]},
+        **_environment(ctx.device),
         "train_images": len(items),
         # train: seconds of training summed over interrupted runs; the rest: this run
         "wall_time_s": {"datasets": round(t_data, 3), "train": history["wall_s"],
                         "eval": round(t_eval, 3),
                         "total": round(time.perf_counter() - t_all, 3)},
-        "training": {"iterations": len(losses), "resumed_from": history["resumed_from"],
+        "training": {"iterations": len(history["losses"]),
+                     "resumed_from": history["resumed_from"],
                      "loss_columns": ["total", "loss_classifier", "loss_box_reg",
                                       "loss_objectness", "loss_rpn_box_reg"],
-                     "losses": losses},
+                     "losses": history["losses"]},
         "val": val, "test": {**result, "kind": test.kind},
     }
     write_json(path, data)
     return data
+
+
+def _ensure_datasets(parts: list[DatasetPart], configs: list, cache: CacheOptions
+                     ) -> tuple[list[Path], list[bool]]:
+    """Generate (or find in the cache) the dataset of each of a cell's ``parts``, made with
+    the generator ``configs`` (one per part); returns (their folders, whether each one was
+    already there)."""
+    folders, reused = [], []
+    for part, config in zip(parts, configs, strict=True):
+        folder, was_cached = ensure_dataset(config, part.name, cache)
+        folders.append(folder)
+        reused.append(was_cached)
+    return folders, reused
+
+
+def _config_record(cell: Cell, grid: GridSpec, parts: list[DatasetPart], configs: list,
+                   keys: list[str], folders: list[Path], reused: list[bool]) -> dict:
+    """The ``config`` entry of a cell's JSON: the cell, the training settings and every
+    dataset of its ``parts`` (generator config, key, folder, whether it was reused)."""
+    return {"cell": {"altitude": cell.altitude, "water": cell.water,
+                     "paper_images": cell.n, "green_images": cell.green},
+            "train": grid.train.to_dict(), "image_size": grid.image_size,
+            "datasets": [{"name": p.name, "images": p.n, "seed": p.seed,
+                          "key": k, "folder": str(f), "reused": r,
+                          "generator": c.to_dict()}
+                         for p, c, k, f, r in zip(parts, configs, keys, folders, reused,
+                                                  strict=True)]}
+
+
+def _environment(device: str) -> dict:
+    """The ``device``, ``device_name``, ``threads`` and ``versions`` entries of a cell's
+    JSON: what it ran on."""
+    torch, torchvision = require_torch()
+    return {"device": device, "device_name": _device_name(torch, device),
+            "threads": torch.get_num_threads(),
+            "versions": {"sdcomp": __version__, "torch": torch.__version__,
+                         "torchvision": torchvision.__version__,
+                         "python": sys.version.split()[0]}}
 
 
 def _device_name(torch, device: str) -> str:
@@ -151,8 +174,9 @@ def prepare_results(grid: GridSpec, test: EvalSet, ctx: RunContext,
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} is a file; give a folder")
     meta_path = out / "grid.json"
-    meta = {"format": "sdcomp-bench-grid", "grid": grid.to_dict(), "test_set": test.label,
-            "test_kind": test.kind, "test_files": test.files, "device": ctx.device}
+    meta: dict[str, Any] = {
+        "format": "sdcomp-bench-grid", "grid": grid.to_dict(), "test_set": test.label,
+        "test_kind": test.kind, "test_files": test.files, "device": ctx.device}
     if meta_path.exists() and not overwrite:
         try:
             old = json.loads(meta_path.read_text())

@@ -27,8 +27,8 @@ import cv2
 import numpy as np
 
 from ..errors import UserError
-from ..fileio import atomic_path
-from ..progress import Progress
+from ..util.files import atomic_path
+from ..util.progress import Progress
 from . import require_torch
 from .detector import BACKBONES, build_detector, check_weights
 
@@ -211,22 +211,13 @@ def load_checkpoint(path: Path, key: str | None = None) -> dict | None:
     return ckpt
 
 
-def train(config: TrainConfig, items: list, image_size: int, checkpoint: Path, key: str,
-          device: str = "cpu", progress: bool | None = None,
-          on_iteration: Callable[[int, float], None] | None = None):
-    """Train (or finish training) a detector on ``items`` (:func:`training_items`).
-
-    Returns ``(model, history)``: the model in eval mode on ``device``, and a dict with
-    ``losses`` (per iteration: the total and each of :data:`LOSS_NAMES`, floats),
-    ``resumed_from`` (first iteration run now; ``max_iter`` if nothing was left),
-    ``wall_s`` (seconds of training, summed over interrupted runs).
-    ``on_iteration(iteration, loss)`` is called after each step (tests stop runs with it).
+def _start_training(config: TrainConfig, image_size: int, ckpt: dict | None, device: str):
+    """The detector and its optimizer, seeded with ``config.seed``, on ``device``, resumed
+    from the checkpoint ``ckpt`` (:func:`load_checkpoint`) where there is one (the torch
+    RNG state too). Returns ``(model, optimizer, start, losses, wall)``: the first iteration
+    to run, the loss rows so far and the seconds of training so far (0, [], 0.0 afresh).
     """
     torch, _ = require_torch()
-    check_weights(config.weights)
-    if not items:
-        raise UserError("the cell's training split has no images; raise the image count")
-    ckpt = load_checkpoint(checkpoint, key)
     torch.manual_seed(config.seed)
     model = make_detector(config, image_size, "none" if ckpt else config.weights)
     model.to(device)
@@ -237,6 +228,31 @@ def train(config: TrainConfig, items: list, image_size: int, checkpoint: Path, k
         opt.load_state_dict(ckpt["optimizer"])
         start, losses, wall = int(ckpt["iteration"]), list(ckpt["losses"]), ckpt["wall_s"]
         torch.set_rng_state(ckpt["rng"])
+    return model, opt, start, losses, wall
+
+
+def train(config: TrainConfig, items: list, image_size: int, checkpoint: Path, key: str,
+          device: str = "cpu", progress: bool | None = None,
+          on_iteration: Callable[[int, float], None] | None = None):
+    """Train (or finish training) a detector on ``items`` (:func:`training_items`).
+
+    Returns ``(model, history)``: the model in eval mode on ``device``, and a dict with
+    ``losses`` (per iteration: the total and each of :data:`LOSS_NAMES`, floats),
+    ``resumed_from`` (first iteration run now; ``max_iter`` if nothing was left),
+    ``wall_s`` (seconds of training, summed over interrupted runs).
+    ``on_iteration(iteration, loss)`` is called after each step (tests stop runs with it).
+
+    Over 50 lines: the training loop reads best whole. Its state (``losses``, the RNG state
+    to checkpoint, whether the model and ``losses`` agree) changes step by step in an order
+    that a Ctrl-C at any point relies on, and ``save`` checkpoints that state; the set-up
+    (model, optimizer, resuming a checkpoint) is :func:`_start_training`.
+    """
+    torch, _ = require_torch()
+    check_weights(config.weights)
+    if not items:
+        raise UserError("the cell's training split has no images; raise the image count")
+    ckpt = load_checkpoint(checkpoint, key)
+    model, opt, start, losses, wall = _start_training(config, image_size, ckpt, device)
     model.train()
     progress_line = Progress(config.max_iter - start, "train", progress, unit="it")
     t0 = time.perf_counter()

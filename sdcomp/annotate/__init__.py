@@ -1,0 +1,13 @@
+"""Stage 5, annotation: a rendered frame's instance masks (the mask rule), its annotated
+objects, and their COCO-style records.
+
+- :mod:`~sdcomp.annotate.masks`: the mask rule, instance ids, boxes, what is dropped;
+- :mod:`~sdcomp.annotate.records`: annotation dicts and image metadata of a frame;
+- :mod:`~sdcomp.annotate.rle`: COCO run-length encoding.
+"""
+
+from .masks import MASK_THRESHOLD, AnnotationRule, Frame, Instance, instance_map
+from .records import coco_annotations, image_meta, object_annotations
+
+__all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "instance_map",
+           "object_annotations", "coco_annotations", "image_meta"]

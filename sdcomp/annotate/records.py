@@ -1,0 +1,86 @@
+"""Annotation records of a rendered frame: the one place that turns a :class:`Frame` into
+COCO-style dicts (per object) and the image's metadata.
+
+Two forms of the same objects: :func:`object_annotations` (the Python API's :class:`Sample`:
+category names, no masks) and :func:`coco_annotations` (what the journal and the COCO files
+hold: RLE segmentation, ``iscrowd``, amodal masks when asked for).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..scene.scene import Placement, Role
+from .masks import Frame, Instance
+from .rle import crop_to_rle, mask_to_rle
+
+
+def pose_of(pl: Placement) -> dict:
+    """The placement's pose as annotations record it: degrees and metres, rounded."""
+    return {"heading_deg": round(pl.heading % 360.0, 3),
+            "roll_deg": round(pl.roll, 3), "pitch_deg": round(pl.pitch, 3),
+            "draft_m": round(pl.draft, 4), "x_m": round(pl.x, 3),
+            "y_m": round(pl.y, 3)}
+
+
+def object_annotations(frame: Frame, names: Mapping[int, str]) -> list[dict]:
+    """Per annotated object: instance_id, category_id, category (its name in ``names``,
+    category id -> name), bbox [x, y, w, h] pixels, area pixels, pose."""
+    return [{"instance_id": inst.instance_id, "category_id": inst.category_id,
+             "category": names[inst.category_id], "bbox": list(inst.bbox),
+             "area": inst.area, "pose": pose_of(frame.scene.placements[inst.placement])}
+            for inst in frame.objects]
+
+
+def coco_annotations(frame: Frame) -> list[dict]:
+    """Per annotated object, the journal's (and COCO files') annotation: instance_id,
+    category_id, bbox, area, segmentation (compressed RLE of the mask), iscrowd 0, pose, and
+    with amodal masks amodal_segmentation, amodal_area, amodal_bbox."""
+    return [_coco_annotation(frame, inst) for inst in frame.objects]
+
+
+def _coco_annotation(frame: Frame, inst: Instance) -> dict:
+    x, y, w, h = inst.bbox
+    crop = frame.instances[y:y + h, x:x + w] == inst.instance_id
+    rec = {"instance_id": inst.instance_id, "category_id": inst.category_id,
+           "bbox": list(inst.bbox), "area": inst.area,
+           "segmentation": crop_to_rle(crop, x, y, *frame.instances.shape), "iscrowd": 0,
+           "pose": pose_of(frame.scene.placements[inst.placement])}
+    if inst.amodal is not None:
+        rec["amodal_segmentation"] = mask_to_rle(inst.amodal)
+        rec["amodal_area"] = inst.amodal_area
+        ys, xs = np.nonzero(inst.amodal)
+        rec["amodal_bbox"] = ([int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
+                               int(ys.max() - ys.min() + 1)] if len(xs) else [0, 0, 0, 0])
+    return rec
+
+
+def image_meta(frame: Frame) -> dict:
+    """Per-image metadata (names follow SeaDronesSee's ``meta`` where they overlap)."""
+    s = frame.scene
+    fx = s.effects
+    return {
+        "height_above_takeoff(meter)": round(s.camera.altitude, 4),
+        "gimbal_pitch(degrees)": round(s.camera.pitch, 4),
+        "gimbal_heading(degrees)": round(s.camera.heading, 4),
+        "gsd(m/px)": round(frame.gsd, 6),
+        "water_color": s.water_name,
+        "water_rgb": list(s.water_rgb),
+        "turbidity": round(s.turbidity, 4),
+        "attenuation(1/m)": round(s.attenuation, 5),
+        "wind(m/s)": round(s.wind, 3),
+        "floor_depth(meter)": round(s.floor_depth, 3),
+        "sun_elevation(degrees)": round(s.sun_elevation, 3),
+        "sun_azimuth(degrees)": round(s.sun_azimuth, 3),
+        "shore": s.shore is not None,
+        "hills": s.hills is not None,
+        "clutter": s.count(Role.CLUTTER),
+        "objects_placed": s.count(Role.OBJECT),
+        "objects_dropped": frame.dropped,
+        "exposure(stops)": round(fx.exposure, 4),
+        "noise_sigma": round(fx.noise, 4),
+        "motion_blur_px": round(fx.motion_blur[0], 3) if fx.motion_blur else 0.0,
+        "defocus_sigma_px": round(fx.defocus_blur, 3) if fx.defocus_blur else 0.0,
+    }

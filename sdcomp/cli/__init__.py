@@ -1,0 +1,112 @@
+"""Stage 8, the command line: argument parsing for every job, and the ``sdcomp`` command.
+
+    sdcomp atlas build|info ...   sprite atlases         (= python -m sdcomp.atlas)
+    sdcomp generate ...           a dataset folder       (= python -m sdcomp.generate)
+    sdcomp show DIR ...           a contact sheet        (= python -m sdcomp.show)
+    sdcomp stats DIR ...          dataset statistics     (= python -m sdcomp.stats)
+    sdcomp merge DIR... --out D   join shard folders     (= python -m sdcomp.merge)
+    sdcomp bench ...              detector benchmarks    (= python -m sdcomp.bench)
+
+Each job's parser and ``main(argv) -> int`` live in a module of this package
+(:mod:`sdcomp.cli.generate`, ...); ``python -m sdcomp.<job>`` runs the same ``main``.
+``sdcomp COMMAND --help`` lists the command's options with their defaults and units. A
+command is imported only when it runs (so ``sdcomp show`` does not import torch); add one by
+adding a line to :data:`COMMANDS`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+
+from .. import __version__
+from ..errors import UserError, run_cli
+
+#: command: (module of its main, function, ``python -m`` module, one-line description)
+COMMANDS: dict[str, tuple[str, str, str, str]] = {
+    "atlas": ("sdcomp.cli.atlas", "main", "sdcomp.atlas",
+              "build or inspect a mesh's sprite atlas (atlas build, atlas info)"),
+    "generate": ("sdcomp.cli.generate", "main", "sdcomp.generate",
+                 "generate a dataset: images, masks, COCO and/or YOLO labels"),
+    "show": ("sdcomp.cli.show", "main", "sdcomp.show",
+             "draw a contact sheet of a generated dataset"),
+    "stats": ("sdcomp.cli.stats", "main", "sdcomp.stats",
+              "counts, object sizes and metadata histograms of a generated dataset"),
+    "merge": ("sdcomp.cli.merge", "main", "sdcomp.merge",
+              "join the folders of --shard runs into one dataset"),
+    "bench": ("sdcomp.bench.cli", "main", "sdcomp.bench",
+              "train and evaluate detectors on generated data (needs torch)"),
+}
+#: modules that may be missing from an installation, and what to do about it
+OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench package; "
+                                "install a version of sdcomp that includes it"}
+
+
+_RUNNING: list[str] = []  # the subcommands running now through `sdcomp COMMAND`
+
+
+def prog(name: str) -> str:
+    """The program name for the usage line of command ``name``: ``sdcomp NAME`` when it runs
+    through the ``sdcomp`` command, else ``python -m MODULE`` (its module in
+    :data:`COMMANDS`)."""
+    if name in _RUNNING:
+        return f"sdcomp {name}"
+    return f"python -m {COMMANDS[name][2]}"
+
+
+def usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = ["usage: sdcomp COMMAND [OPTIONS]   (sdcomp COMMAND --help for its options)", "",
+             "Synthetic drone-over-water detection datasets with exact masks.", "",
+             "commands:"]
+    lines += [f"  {name.ljust(width)}  {desc}" for name, (*_, desc) in COMMANDS.items()]
+    lines += ["", "options:", "  -h, --help  show this help and exit",
+              "  --version   print the sdcomp version and exit"]
+    return "\n".join(lines) + "\n"
+
+
+def command(name: str) -> Callable[[Sequence[str] | None], int | None]:
+    """The ``main(argv)`` of command ``name`` (imported now); UserError when it is unknown
+    or its module is not installed."""
+    if name not in COMMANDS:
+        near = difflib.get_close_matches(name, list(COMMANDS), n=1)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        raise UserError(f"unknown command {name!r}; {hint}use one of {', '.join(COMMANDS)}")
+    module, func, *_ = COMMANDS[name]
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        parts = module.split(".")
+        own = {".".join(parts[:k]) for k in range(2, len(parts) + 1)}
+        if e.name in own and module in OPTIONAL:  # the module itself, not one it imports
+            raise UserError(f"`sdcomp {name}`: {OPTIONAL[module]}") from None
+        raise
+    return getattr(mod, func)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``sdcomp COMMAND ...``: run the command's ``main`` on the rest of the arguments."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        sys.stdout.write(usage())
+        return 0 if args else 2
+    if args[0] == "--version":
+        print(f"sdcomp {__version__}")
+        return 0
+    func = command(args[0])
+    _RUNNING.append(args[0])
+    try:
+        return int(func(args[1:]) or 0)
+    finally:
+        _RUNNING.pop()
+
+
+def run() -> None:
+    """Console-script entry point (``sdcomp`` in setup.cfg): exit with main's status."""
+    sys.exit(run_cli(main))
+
+
+if __name__ == "__main__":
+    run()

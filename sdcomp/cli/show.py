@@ -1,0 +1,85 @@
+"""``python -m sdcomp.show`` (``sdcomp show``): a contact sheet of a generated dataset
+(:mod:`sdcomp.report.sheet`).
+
+    python -m sdcomp.show DIR [--out DIR/sheet.png] [--n 24] [--split all|train|val]
+                              [--columns 6] [--cell 256] [--select spread|first|random]
+                              [--seed 0] [--no-labels]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..errors import UserError, run_cli
+from ..io.layout import SPLIT_CHOICES, load_dataset
+from ..report.sheet import (
+    SELECT_CHOICES,
+    category_colour_name,
+    check_choices,
+    check_params,
+    sheet_of,
+    write_sheet,
+)
+from . import prog
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog=prog("show"),
+        description="Draw a contact sheet of a generated dataset: images with mask outlines, "
+                    "boxes (one colour per category) and captions.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("folder", metavar="DIR", help="dataset folder (the generator's --out)")
+    p.add_argument("--out", default=None, metavar="PNG", help="sheet file (default: DIR/sheet.png)")
+    p.add_argument("--n", type=int, default=24, help="images to show at most")
+    p.add_argument("--split", default="all", metavar="|".join(SPLIT_CHOICES),
+                   help="which COCO file's images")
+    p.add_argument("--columns", type=int, default=6, help="cells per row at most")
+    p.add_argument("--cell", type=int, default=256, metavar="PX", help="cell side, pixels")
+    p.add_argument("--select", default="spread", metavar="|".join(SELECT_CHOICES),
+                   help="spread: evenly over the images; first: the first n; random: n drawn "
+                        "with --seed")
+    p.add_argument("--seed", type=int, default=0, help="seed of --select random")
+    p.add_argument("--no-labels", dest="labels", action="store_false",
+                   help="no caption band")
+    return p
+
+
+def _check_out(out: Path) -> None:
+    if out.is_dir():
+        raise UserError(f"--out {str(out)!r} is a folder: give a file name such as "
+                        f"{str(out / 'sheet.png')!r}")
+    if out.suffix.lower() != ".png":
+        raise UserError(f"--out {str(out)!r} must end in .png: the sheet is written as PNG")
+    parent = out.parent
+    if not parent.is_dir():
+        raise UserError(f"--out {str(out)!r}: folder {str(parent)!r} does not exist: create it "
+                        f"first or choose another path")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UserError(f"--out {str(out)!r}: folder {str(parent)!r} is not writable")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    check_params(args.n, args.columns, args.cell)
+    check_choices(args.split, args.select)
+    ds = load_dataset(args.folder, args.split)
+    out = Path(args.out) if args.out is not None else ds.folder / "sheet.png"
+    _check_out(out)
+    sheet, shown = sheet_of(ds, args.split, args.n, args.columns, args.cell, args.select,
+                          args.seed, args.labels)
+    write_sheet(sheet, out)
+    used = sorted({a.get("category_id", 1) for e in shown for a in e.annotations
+                   if isinstance(a.get("category_id", 1), int)})
+    legend = ", ".join(f"{ds.categories.get(c, c)} {category_colour_name(c)}" for c in used)
+    print(f"{out}: {len(shown)} of {len(ds.entries)} images ({args.split}, {args.select}), "
+          f"{sheet.shape[1]}x{sheet.shape[0]} px" + (f"; colours: {legend}" if legend else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

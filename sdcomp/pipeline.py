@@ -1,0 +1,157 @@
+"""The Python API: build a generator from a config, render image ``i`` to arrays.
+
+    >>> from sdcomp import GeneratorConfig, Generator
+    >>> gen = Generator(GeneratorConfig(n=10, seed=1))
+    >>> sample = gen.sample(3)          # nothing touches the disk but the sprite cache
+    >>> sample.image.shape, sample.masks.shape, sample.annotations[0]["bbox"]
+
+A :class:`Generator` puts the stages together for one config: the assets (meshes -> sprite
+atlases, ground textures, the user's photos), the scene of image ``i``
+(:func:`sdcomp.scene.sample.sample_scene`), its rendering (:class:`sdcomp.render.Compositor`)
+and annotation (:func:`sdcomp.annotate.instance_map`). Image ``i`` depends only on (config,
+i): any process, any order, same pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .annotate import AnnotationRule, Frame, image_meta, instance_map, object_annotations
+from .assets import clutter as clutter_meshes
+from .assets.library import MeshSpec
+from .assets.mesh import ColoredMesh
+from .atlas.poses import PoseGrid
+from .atlas.sprites import SpriteSource
+from .atlas.store import AtlasConfig, ensure_atlas
+from .errors import UserError
+from .render.compositor import Compositor, RenderAssets
+from .render.photos import Backgrounds
+from .render.textures import Textures
+from .scene.config import GeneratorConfig
+from .scene.sample import clutter_asset, object_asset, sample_scene
+from .scene.scene import FeatureSeeds, Scene
+
+DEFAULT_SPRITES = "sprites"
+#: atlas parameters of clutter meshes: smaller sprites, a coarser pose grid
+CLUTTER_ATLAS = AtlasConfig(size=64, supersample=3,
+                            grid=PoseGrid(off_nadir_step=15.0, max_error=10.0))
+WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
+
+
+@dataclass
+class Sample:
+    """One rendered image as arrays.
+
+    Attributes:
+        image: (H, W, 3) uint8 RGB.
+        instances: (H, W) uint16 instance ids (0 = no object), as in the mask PNGs.
+        masks: (N, H, W) bool, one per annotation, ``masks[k] == (instances == k + 1)``.
+        annotations: N dicts: instance_id, category_id, category, bbox [x, y, w, h] px,
+            area px, pose {heading_deg, roll_deg, pitch_deg, draft_m, x_m, y_m}.
+        meta: the image's metadata (altitude, pitch, GSD, water, sun, ...).
+    """
+
+    image: np.ndarray
+    instances: np.ndarray
+    annotations: list[dict]
+    meta: dict
+    frame: Frame
+
+    @property
+    def masks(self) -> np.ndarray:
+        n = len(self.annotations)
+        return self.instances[None, :, :] == np.arange(1, n + 1, dtype=np.uint16)[:, None, None]
+
+
+class Generator:
+    """Renders the images of ``config``. Sprite atlases are loaded from ``sprites_dir`` or
+    built there first (the BlueROV2's takes a few seconds, once)."""
+
+    def __init__(self, config: GeneratorConfig, sprites_dir: str | Path = DEFAULT_SPRITES,
+                 progress: bool | None = None, build_workers: int | None = None):
+        self.config = config
+        self.model = config.camera_model()
+        sprites: dict[str, SpriteSource] = {}
+        for k, o in enumerate(config.objects):
+            key = object_asset(config, k)
+            if key not in sprites:
+                sprites[key] = _sprites(_load_object(o.mesh), AtlasConfig(), sprites_dir,
+                                        progress, build_workers, rebuild=False)
+        if config.clutter > 0:
+            for kind in config.clutter_kinds:
+                sprites[clutter_asset(kind)] = _sprites(
+                    clutter_meshes.build(kind), CLUTTER_ATLAS, sprites_dir, progress,
+                    build_workers, rebuild=True)
+        photos = Backgrounds(config.backgrounds) if config.backgrounds else None
+        assets = RenderAssets(sprites, Textures.build(config.seed, config.rocks), photos)
+        self.compositor = Compositor(assets)
+        self.compositor.prepare(self.model, FeatureSeeds.of(0, config.seed).noise_tile)
+        self.rule = AnnotationRule(config.min_visible_px, config.amodal)
+        self.names = {c["id"]: c["name"] for c in config.categories}
+
+    def warm(self) -> None:
+        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`, 0.2 s): call
+        it before forking workers, which then inherit them. Frames wider or higher than
+        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them it
+        does nothing."""
+        if max(self.model.width, self.model.height) > WARM_MAX_SIDE:
+            return
+        for src in self.compositor.assets.sprites.values():
+            src.warm()
+
+    def scene(self, index: int) -> Scene:
+        """The scene description of image ``index``."""
+        return sample_scene(self.config, index, self.model)
+
+    def render(self, index: int) -> Frame:
+        """Image ``index`` with its instance map and annotated objects."""
+        return self.render_scene(self.scene(index))
+
+    def render_scene(self, scene: Scene, rule: AnnotationRule | None = None) -> Frame:
+        """Any ``scene`` of this generator's assets (e.g. :meth:`scene` with placements of
+        your own, :func:`dataclasses.replace`-d) rendered and annotated by ``rule``
+        (default: the config's)."""
+        out = self.compositor.render(scene)
+        instances, objects, dropped = instance_map(scene, out.layers, rule or self.rule)
+        return Frame(out.image, instances, objects, dropped, scene)
+
+    def sample(self, index: int) -> Sample:
+        """Image ``index`` as arrays with COCO-style annotations (no ids, no RLE)."""
+        frame = self.render(index)
+        return Sample(frame.image, frame.instances, object_annotations(frame, self.names),
+                      image_meta(frame), frame)
+
+
+def _sprites(mesh: ColoredMesh, atlas_config: AtlasConfig, sprites_dir: str | Path,
+             progress: bool | None, workers: int | None, rebuild: bool) -> SpriteSource:
+    """The sprites of ``mesh``'s atlas (built first when missing); ``rebuild``: its index
+    names the command that rebuilds it."""
+    cmd = f"python -m sdcomp.atlas build --mesh {mesh.name}" if rebuild else ""
+    atlas, _ = ensure_atlas(mesh, atlas_config, sprites_dir, progress=progress,
+                            workers=workers, rebuild_command=cmd, sheet=False)
+    return SpriteSource(atlas)
+
+
+def _load_object(source: str) -> ColoredMesh:
+    try:
+        return MeshSpec(source).load()
+    except UserError as e:
+        raise UserError(f"--object {source}: {e}") from None
+
+
+_CACHED: dict[tuple[str, str], Generator] = {}  # per process: see cached_generator
+
+
+def cached_generator(config: GeneratorConfig, sprites_dir: str | Path) -> Generator:
+    """This process's generator of ``config`` (built on first use, then kept; one config at a
+    time: textures and sprites are large). For workers that receive a config rather than
+    inherit a generator: Dask tasks and spawned pool workers."""
+    key = (repr(sorted(config.to_dict().items())), str(sprites_dir))
+    gen = _CACHED.get(key)
+    if gen is None:
+        _CACHED.clear()
+        gen = _CACHED[key] = Generator(config, sprites_dir, progress=False)
+    return gen

@@ -1,0 +1,245 @@
+"""The output folder of a run, written once for every engine: prepare (check, clear or
+resume), sweep temporary files, and finish (label files and dataset.json from the journal).
+
+Every file appears whole or not at all (temporary name, then rename). Image ``i`` depends
+only on (config, i), the journal is read back in index order, and nothing records times, so
+the same config gives byte-identical images, masks, label files and dataset.json whatever
+the number of workers and however often the run was interrupted and resumed.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import shutil
+import signal
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .. import __version__
+from ..annotate.masks import MASK_RULE
+from ..errors import UserError
+from ..io.journal import iter_records, read_journal
+from ..io.layout import (
+    CORE_FOLDERS,
+    ENTRIES,
+    FORMAT,
+    FORMAT_VERSION,
+    LAYOUT_ORDER,
+    DatasetLayout,
+)
+from ..io.writers import LabelWriter, writers_for
+from ..scene.config import GeneratorConfig
+from ..util.files import atomic_write_bytes
+from .options import RunOptions, run_indices
+from .shards import shard_text
+
+
+def prepare_output(config: GeneratorConfig, options: RunOptions,
+                   extra: tuple[str, ...] = (), check_resume: bool = True) -> set[int]:
+    """Check or clear the output folder and make its folders; return the indices already
+    done (a resumed run). ``extra``: more names of the run's own that --overwrite removes
+    (an engine's work folder); ``check_resume`` False: the engine checks what a resumed
+    folder holds itself (none are done here)."""
+    out = options.out
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} is a file; give a folder")
+    entries = list(out.iterdir()) if out.exists() else []
+    if entries and not (options.resume or options.overwrite):
+        raise UserError(f"output folder {out} is not empty: add --resume to continue the "
+                        f"run that made it, or --overwrite to replace it")
+    if options.resume and options.overwrite:
+        raise UserError("--resume and --overwrite exclude each other; pick one")
+    done: set[int] = set()
+    if entries and options.overwrite:
+        remove_dataset(out, extra)
+    elif entries and options.resume and check_resume:
+        done = resumable(config, out, options.shard)
+    layout = DatasetLayout(out)
+    try:
+        for folder in folders(layout, writers_for(config)):
+            folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UserError(f"--out {out}: cannot create the folder ({e.strerror})") from None
+    sweep_tmp(layout, writers_for(config))
+    return done
+
+
+def remove_dataset(out: Path, extra: tuple[str, ...] = ()) -> None:
+    """Remove a dataset's own entries from ``out`` (other files stay)."""
+    for name in (*ENTRIES, *extra):
+        p = out / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+
+
+def folders(layout: DatasetLayout, writers: list[LabelWriter]) -> list[Path]:
+    """The folders a run makes: images, masks, annotations, and the label writers'."""
+    out = [layout.root / name for name in CORE_FOLDERS]
+    for w in writers:
+        out += [f for f in w.folders(layout) if f not in out]
+    return out
+
+
+def sweep_tmp(layout: DatasetLayout, writers: list[LabelWriter]) -> None:
+    """Remove the temporary files a killed run can leave (``.NAME.*.tmp``)."""
+    for folder in folders(layout, writers):
+        for tmp in folder.glob(".*.tmp"):
+            tmp.unlink(missing_ok=True)
+    for tmp in layout.root.glob(".dataset.json.*.tmp"):
+        tmp.unlink(missing_ok=True)
+
+
+def image_files(config: GeneratorConfig, layout: DatasetLayout, index: int) -> list[Path]:
+    """Every file a run writes for image ``index``: image, mask and label files."""
+    return [layout.image_file(index, config.image_format), layout.mask_file(index),
+            *(p for w in writers_for(config) for p in w.image_files(layout, index))]
+
+
+def _never_begun(out: Path) -> bool:
+    """Whether ``out`` holds only the empty start of a run: our folders and temporary or
+    annotation files, no image, no journal line."""
+    layout = DatasetLayout(out)
+    for p in out.iterdir():
+        if p.name not in ENTRIES and not p.name.endswith(".tmp"):
+            return False
+        if p in (layout.images, layout.masks) and any(q for q in p.iterdir()
+                                                      if not q.name.endswith(".tmp")):
+            return False
+        if p == layout.journal and p.stat().st_size:
+            return False
+    return True
+
+
+def resumable(config: GeneratorConfig, out: Path,
+              shard: tuple[int, int] | None = None) -> set[int]:
+    """The images of ``out`` a resumed run of ``config`` (and ``shard``) keeps: those with a
+    journal line and all their files. UserError when ``out`` was made with other options."""
+    layout = DatasetLayout(out)
+    if not layout.meta.exists() and _never_begun(out):
+        return set()  # killed between creating the folders and writing dataset.json
+    try:
+        meta = json.loads(layout.meta.read_text())
+        if meta.get("format") != FORMAT:
+            raise ValueError
+    except (OSError, ValueError):
+        raise UserError(f"--resume: {out} is not an sdcomp dataset (no valid dataset.json); "
+                        f"use --overwrite to replace it or choose another --out") from None
+    _check_same_run(config, meta, out, shard)
+    if not layout.journal.exists():
+        return set()
+    indices = run_indices(config, shard)
+    return {i for i in read_journal(layout.journal) if i in indices
+            and all(p.exists() for p in image_files(config, layout, i))}
+
+
+def _check_same_run(config: GeneratorConfig, meta: dict, out: Path,
+                    shard: tuple[int, int] | None) -> None:
+    """UserError unless dataset.json ``meta`` records ``config`` and ``shard``."""
+    old = meta.get("config", {})
+    new = config.to_dict()
+    # a field the folder's sdcomp did not have yet is at its default (the old behaviour)
+    defaults = GeneratorConfig().to_dict()
+    diff = [k for k in new if old.get(k, defaults[k]) != new[k]]
+    if diff:
+        k = diff[0]
+        raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
+                        f"{new[k]!r}; run with the same options, or use --overwrite")
+    want = shard_text(shard) if shard else None
+    if meta.get("shard") != want:
+        was = f"--shard {meta['shard']}" if meta.get("shard") else "without --shard"
+        now = f"--shard {want}" if want else "without --shard"
+        raise UserError(f"--resume: {out} was made {was}, not {now}; resume it as it was "
+                        f"made, or use --overwrite")
+
+
+def _tally(layout: DatasetLayout, offsets: dict[int, int]) -> dict[str, Any]:
+    """One pass over the journal: images per split (in order of first appearance),
+    annotations, objects dropped, images without objects."""
+    splits: dict[str, int] = {}
+    annotations = dropped = empty = 0
+    for rec in iter_records(layout.journal, offsets):
+        splits[rec["split"]] = splits.get(rec["split"], 0) + 1
+        annotations += len(rec["annotations"])
+        dropped += int(rec["image"]["meta"].get("objects_dropped", 0))
+        empty += not rec["annotations"]
+    return {"splits": splits, "annotations": annotations, "dropped": dropped, "empty": empty}
+
+
+def write_annotations(config: GeneratorConfig, out: Path, status: str,
+                      shard: tuple[int, int] | None = None) -> dict:
+    """The label files of ``config.format`` and dataset.json from the journal (the images
+    of ``shard`` only, when given); returns the counts."""
+    layout = DatasetLayout(out)
+    offsets = read_journal(layout.journal) if layout.journal.exists() else {}
+    indices = run_indices(config, shard)
+    offsets = {i: o for i, o in offsets.items() if i in indices}
+    if not layout.journal.exists():
+        layout.journal.touch()
+    info = {"description": "sdcomp synthetic drone-over-water dataset",
+            "version": __version__, "seed": config.seed, "url": "", "contributor": "sdcomp",
+            "year": 0, "date_created": ""}
+    writers = writers_for(config)
+    counts: dict[str, int] = {"images": len(offsets), "annotations": 0}
+    for w in writers:
+        counts.update(w.finish(layout, offsets, config.categories, info))
+    tally = _tally(layout, offsets)
+    counts["annotations"] = tally["annotations"]
+    for split, n in tally["splits"].items():
+        counts.setdefault(split, n)
+    counts.setdefault("train", 0)
+    counts.setdefault("val", 0)
+    counts["objects_dropped"] = tally["dropped"]
+    counts["empty_images"] = tally["empty"]
+    entries = {"images": "images/", "masks": "masks/ (16-bit PNG instance ids)",
+               "journal": "records.jsonl"}
+    for w in writers:
+        entries.update(w.layout_entries())
+    meta: dict[str, Any] = {
+        "format": FORMAT, "format_version": FORMAT_VERSION, "sdcomp_version": __version__,
+        "seed": config.seed, "status": status, "counts": counts,
+        "layout": {k: entries[k] for k in sorted(entries, key=_layout_position)},
+        "mask_rule": MASK_RULE, "config": config.to_dict()}
+    if shard is not None:
+        meta["shard"] = shard_text(shard)
+    atomic_write_bytes(layout.meta, (json.dumps(meta, indent=1, sort_keys=False) + "\n")
+                       .encode())
+    return counts
+
+
+def _layout_position(key: str) -> int:
+    return LAYOUT_ORDER.index(key) if key in LAYOUT_ORDER else len(LAYOUT_ORDER)
+
+
+def on_sigterm() -> Callable | int | None:
+    """Treat SIGTERM (e.g. a job scheduler stopping the run) like Ctrl-C; returns the old
+    handler, or None when not in the main thread."""
+    def handler(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: let the clean-up finish
+        raise KeyboardInterrupt
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except ValueError:
+        return None
+
+
+def restore_sigterm(old: Callable | int | None) -> None:
+    """Put back the SIGTERM handler :func:`on_sigterm` replaced."""
+    if old is not None:
+        signal.signal(signal.SIGTERM, old)
+
+
+def os_error_message(e: OSError, out: Path, kept: str = "") -> str:
+    """One line for a file-system error: the file, the reason, what is kept, the fix."""
+    where = e.filename if e.filename is not None else out
+    why = e.strerror or str(e) or type(e).__name__
+    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        fix = "free some disk space"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        fix = f"make {out} writable"
+    else:
+        fix = "fix the cause"
+    return f"{where}: {why}; {kept}{fix}, then continue with the same command and --resume"

@@ -1,0 +1,86 @@
+"""One image of a run: render it, write its files, return its journal record.
+
+The record is ``{"index", "split", "image": {id, file_name, width, height, mask_file, meta},
+"annotations": [...]}`` (see :mod:`sdcomp.io.journal`); the image, its 16-bit mask and the
+label writers' per-image files are written (each atomically) before it is returned, so a
+journaled image always has its files.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+from ..annotate import coco_annotations, image_meta
+from ..io.layout import DatasetLayout, image_name
+from ..io.png import encode_png16
+from ..io.writers import LabelWriter
+from ..pipeline import Generator
+from ..util import files
+
+SPLIT_BLOCK = 100  # val images are exactly round(f * 100) of every 100 consecutive ones
+
+
+def split_of(seed: int, index: int, val_fraction: float) -> str:
+    """``"val"`` or ``"train"`` for image ``index``: in every block of 100 consecutive
+    images, exactly ``round(100 * val_fraction)`` chosen by a seeded permutation are val."""
+    block, pos = divmod(int(index), SPLIT_BLOCK)
+    k = int(round(val_fraction * SPLIT_BLOCK))
+    if k <= 0:
+        return "train"
+    return "val" if _block_order(int(seed), block)[pos] < k else "train"
+
+
+@lru_cache(maxsize=16)
+def _block_order(seed: int, block: int) -> tuple[int, ...]:
+    """The seeded permutation of a block of :data:`SPLIT_BLOCK` images (kept for the
+    block's other images: drawing it costs more than writing an image's record)."""
+    return tuple(np.random.default_rng([seed, block, 0x5B11]).permutation(SPLIT_BLOCK)
+                 .tolist())
+
+
+def encode_image(image: np.ndarray, image_format: str, jpeg_quality: int) -> bytes:
+    """The (H, W, 3) uint8 RGB ``image`` as JPEG (of ``jpeg_quality``) or PNG file bytes.
+    The image's channels are swapped to BGR in place (it is not used after)."""
+    bgr = rgb_to_bgr_in_place(image)
+    if image_format == "jpg":
+        ok, data = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
+    else:
+        ok, data = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:
+        raise RuntimeError(f"could not encode an image of shape {image.shape}")
+    return data.tobytes()
+
+
+def rgb_to_bgr_in_place(image: np.ndarray, band_bytes: int = 1 << 24) -> np.ndarray:
+    """Swap an (H, W, 3) uint8 image to OpenCV's BGR order in place, in bands of rows (a
+    30000 x 30000 frame is 2.7 GB: no room for a whole copy, which OpenCV makes even when
+    asked to convert in place). Returns ``image``."""
+    rows = max(1, band_bytes // max(1, image.shape[1] * 3))
+    for y in range(0, image.shape[0], rows):
+        band = image[y:y + rows]
+        cv2.cvtColor(band, cv2.COLOR_RGB2BGR, dst=band)
+    return image
+
+
+def make_record(gen: Generator, index: int, layout: DatasetLayout,
+                writers: list[LabelWriter]) -> dict:
+    """Render image ``index``, write its image, mask and label files, return its journal
+    record."""
+    config = gen.config
+    frame = gen.render(index)
+    name = image_name(index, config.image_format)
+    mask_name = image_name(index, "png")
+    data = encode_image(frame.image, config.image_format, frame.scene.effects.jpeg_quality)
+    files.write_file(layout.images / name, data)
+    files.write_file(layout.masks / mask_name, encode_png16(frame.instances))
+    anns = coco_annotations(frame)
+    for writer in writers:  # before the record is returned (and journaled)
+        writer.write_image(layout, index, name, frame.instances, anns)
+    h, w = frame.instances.shape
+    image = {"id": index + 1, "file_name": name, "width": w, "height": h,
+             "mask_file": mask_name, "meta": image_meta(frame)}
+    return {"index": index, "split": split_of(config.seed, index, config.val_fraction),
+            "image": image, "annotations": anns}

@@ -1,0 +1,148 @@
+"""Drawing the scene of image ``i``: a pure function of (config, i).
+
+:func:`sample_scene` draws everything random about one image with a generator seeded by
+``(seed, index)`` only, so image ``i`` never depends on which worker made it or on the images
+before it. The order of the draws is part of the output's definition: changing it changes
+every dataset.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .camera import CameraModel, CameraPose, ground_point
+from .config import GeneratorConfig
+from .scene import Effects, FeatureSeeds, Placement, Role, Scene, Shore, on_land
+from .water import attenuation, parse_water
+
+MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
+EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
+CLUTTER_PREFIX = "clutter:"  # asset keys of clutter kinds: "clutter:buoy"
+
+
+def scene_rng(seed: int, index: int) -> np.random.Generator:
+    """The random generator of image ``index`` (independent streams per image)."""
+    return np.random.default_rng([int(seed), int(index), 0x5DC0])
+
+
+def object_asset(config: GeneratorConfig, k: int) -> str:
+    """Asset key of ``config.objects[k]``: its mesh (a built-in name or a file path)."""
+    return config.objects[k].mesh
+
+
+def clutter_asset(kind: str) -> str:
+    """Asset key of the clutter kind ``kind``."""
+    return CLUTTER_PREFIX + kind
+
+
+def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None = None
+                 ) -> Scene:
+    """Draw the scene of image ``index``; a pure function of (config, index)."""
+    rng = scene_rng(config.seed, index)
+    model = model or config.camera_model()
+    pose = CameraPose(config.altitude.sample(rng), config.pitch.sample(rng),
+                      config.heading.sample(rng) % 360.0)
+    water = config.water[min(int(rng.random() * len(config.water)), len(config.water) - 1)]
+    name, rgb = parse_water(water)
+    jitter = rng.uniform(0.92, 1.08, 3)
+    r, g, b = (min(max(round(c * j), 0), 255) for c, j in zip(rgb, jitter.tolist(),
+                                                               strict=True))
+    turbidity = config.turbidity.sample(rng)
+    wind = config.wind.sample(rng)
+    swell = rng.uniform(0, 360)
+    floor_depth = config.floor_depth.sample(rng)
+    sun_el = config.sun_elevation.sample(rng)
+    sun_az = config.sun_azimuth.sample(rng) % 360.0
+    ambient = config.ambient.sample(rng)
+
+    shore = None
+    if rng.random() < config.shore:
+        footprint = pose.altitude * model.width / model.fx
+        shore = Shore(rng.uniform(0, 360), footprint * rng.uniform(0.2, 0.45),
+                      int(rng.integers(2**31)))
+    hills = int(rng.integers(2**31)) if rng.random() < config.hills else None
+    placements = _placements(rng, config, model, pose, shore)
+    effects = _effects(rng, config, model)
+    seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
+    return Scene(index, model, pose, name, (r, g, b), turbidity, attenuation(turbidity), wind,
+                 swell, floor_depth, sun_el, sun_az, ambient, placements, shore, hills,
+                 effects, seeds, config.shadows, config.whitecaps)
+
+
+def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
+                pose: CameraPose, shore: Shore | None) -> tuple[Placement, ...]:
+    """The objects of interest, then the clutter, each seen in the frame and on water."""
+    placements = []
+    n_obj = int(config.count.sample(rng))
+    for _ in range(n_obj):
+        k = int(rng.integers(len(config.objects)))
+        p = _place(rng, config, model, pose, shore, Role.OBJECT, object_asset(config, k),
+                   k + 1)
+        if p is not None:
+            placements.append(p)
+    n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
+    for _ in range(n_clutter):
+        kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
+        p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_asset(kind), 0,
+                   kind)
+        if p is not None:
+            placements.append(p)
+    return tuple(placements)
+
+
+def _effects(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
+             ) -> Effects:
+    """The camera effects of one image."""
+    exposure = config.exposure.sample(rng)
+    wb_amp = config.white_balance.sample(rng)
+    wb = (1.0 + rng.uniform(-wb_amp, wb_amp), 1.0, 1.0 + rng.uniform(-wb_amp, wb_amp))
+    noise = config.noise.sample(rng)
+    scale = max(model.width, model.height) / 416.0
+    motion = ((rng.uniform(2, 6) * scale, rng.uniform(0, 180))
+              if rng.random() < config.motion_blur else None)
+    defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
+    return Effects(exposure, wb, noise, motion, defocus, config.vignetting.sample(rng),
+                   int(config.jpeg_quality.sample(rng)))
+
+
+def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
+           pose: CameraPose, shore: Shore | None, role: Role, asset: str, category_id: int,
+           kind: str = "") -> Placement | None:
+    """A random placement seen in the frame (possibly cut by its edge), on water; None
+    when 8 tries find no such place. Clutter of ``kind`` gets a tint of that kind."""
+    u0, v0 = rng.random(), rng.random()
+    heading = rng.uniform(0, 360)
+    roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
+    draft = config.draft.sample(rng) if role is Role.OBJECT else rng.uniform(-0.02, 0.04)
+    tint = _clutter_tint(rng, kind) if role is Role.CLUTTER else (1.0, 1.0, 1.0)
+    for attempt in range(8):
+        if attempt:
+            u0, v0 = rng.random(), rng.random()
+        m = EDGE_MARGIN
+        u = (-m + (1 + 2 * m) * u0) * model.width
+        v = (-m + (1 + 2 * m) * v0) * model.height
+        hit = ground_point(model, pose, u, v)
+        if hit is None:
+            continue
+        x, y = hit
+        if math.hypot(x, y) > MAX_DISTANCE_ALTITUDES * pose.altitude:
+            continue
+        if on_land(shore, x, y):
+            continue
+        return Placement(role, asset, category_id, x, y, heading, float(roll), float(pitch),
+                         float(draft), tint)
+    return None
+
+
+def _clutter_tint(rng: np.random.Generator, kind: str) -> tuple[float, float, float]:
+    """Albedo gains of one clutter object of ``kind`` (buoys and boats in a few paints)."""
+    if kind == "buoy":  # orange-red, yellow, white or green buoys
+        options = ((1.0, 1.0, 1.0), (1.05, 2.6, 0.5), (1.05, 2.9, 7.0), (0.35, 1.8, 1.4))
+        return options[int(rng.integers(len(options)))]
+    if kind == "boat":  # white, blue or red hulls (the hull is white: gains darken it)
+        options = ((1.0, 1.0, 1.0), (0.35, 0.55, 0.95), (0.9, 0.3, 0.3), (0.8, 0.8, 0.8))
+        return options[int(rng.integers(len(options)))]
+    g = rng.uniform(0.8, 1.15)
+    return (g, g, g)

@@ -1,0 +1,147 @@
+"""The scene description: everything the pixels of one image depend on, as plain data.
+
+A :class:`Scene` is kept apart from the renderer (kubric-style): :mod:`sdcomp.scene.sample`
+draws it from (config, index), :mod:`sdcomp.render` turns it into pixels with the assets
+(sprites, textures, photos) and nothing else. It names its assets by key, carries the
+feature switches and one seed per feature, so the renderer never reads the run config.
+
+World frame: metres, z up, sea surface z = 0, camera above the origin. Angles in degrees;
+headings and azimuths counter-clockwise from world +x.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import CameraModel, CameraPose, centre_gsd
+
+
+class Role(enum.Enum):
+    """What a floating object is in the dataset."""
+
+    OBJECT = "object"  # an object of interest: annotated
+    CLUTTER = "clutter"  # a distractor: never annotated
+
+
+@dataclass(frozen=True)
+class Placement:
+    """One floating object: which asset (its sprite key), its role, its COCO category (0 for
+    clutter), where its waterline centre meets the sea (x, y metres), its heading, wave tilt
+    (roll, pitch degrees), ``draft`` (metres below its natural waterline; negative: higher)
+    and ``tint`` (albedo gain per channel)."""
+
+    role: Role
+    asset: str
+    category_id: int
+    x: float
+    y: float
+    heading: float
+    roll: float
+    pitch: float
+    draft: float
+    tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Shore:
+    """Land beyond a wavy coastline: points p with p . (cos a, sin a) > distance + wiggle."""
+
+    angle: float
+    distance: float
+    seed: int
+
+    def wiggle(self, along):
+        """Offset (metres) of the coastline from its straight line at ``along`` metres."""
+        r = np.random.default_rng(self.seed)
+        out = np.zeros(np.shape(along), np.float64)
+        for wavelength in (60.0, 23.0, 9.0, 3.5):
+            phase = r.uniform(0, 2 * math.pi)
+            out = out + wavelength * 0.08 * np.sin(2 * math.pi * np.asarray(along)
+                                                   / wavelength + phase)
+        return out
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Camera effects: exposure (stops), white-balance gains (R, G, B), noise standard
+    deviation (8-bit levels), motion blur (length px, angle deg) or None, defocus blur sigma
+    (px) or None, vignetting (fractional fall-off at the corners), JPEG quality."""
+
+    exposure: float
+    white_balance: tuple[float, float, float]
+    noise: float
+    motion_blur: tuple[float, float] | None
+    defocus_blur: float | None
+    vignetting: float
+    jpeg_quality: int
+
+
+@dataclass(frozen=True)
+class FeatureSeeds:
+    """Seed sequences of the renderer's random choices, one per feature (each a
+    ``numpy.random.default_rng`` seed): ``waves`` the wave texture's offset (then the
+    sensor noise's window, drawn from the same stream after it), ``floor`` and ``land``
+    their textures' offsets, ``photo`` the choice and crop of a user's photo, ``noise_tile``
+    the sensor-noise tile of the run (shared by its images)."""
+
+    waves: tuple[int, ...]
+    floor: tuple[int, ...]
+    land: tuple[int, ...]
+    photo: tuple[int, ...]
+    noise_tile: tuple[int, ...]
+
+    @classmethod
+    def of(cls, texture_seed: int, run_seed: int) -> FeatureSeeds:
+        """The seeds of an image whose texture seed is ``texture_seed`` in a run of
+        ``run_seed``."""
+        t = int(texture_seed)
+        return cls((t, 1), (t, 2), (t, 3), (t, 4), (int(run_seed), 31337))
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything that varies per image (see the module docstring for frames and units)."""
+
+    index: int
+    model: CameraModel
+    camera: CameraPose
+    water_name: str
+    water_rgb: tuple[int, int, int]
+    turbidity: float
+    attenuation: float  # 1/m
+    wind: float  # m/s
+    swell_direction: float  # degrees
+    floor_depth: float  # m
+    sun_elevation: float
+    sun_azimuth: float
+    ambient: float
+    placements: tuple[Placement, ...]
+    shore: Shore | None
+    hills: int | None  # seed of the ridge line when hills are drawn, else None
+    effects: Effects
+    seeds: FeatureSeeds
+    shadows: bool = True  # object shadows on the water and floor
+    whitecaps: float = 1.0  # whitecap amount at a given wind
+
+    @property
+    def gsd(self) -> float:
+        """Metres per pixel (along x) at the image centre."""
+        return centre_gsd(self.model, self.camera)
+
+    def count(self, role: Role) -> int:
+        """How many placements have ``role``."""
+        return sum(1 for p in self.placements if p.role is role)
+
+
+def on_land(shore: Shore | None, x, y):
+    """Whether ground points (x, y) metres lie on the land of ``shore`` (array or bool)."""
+    if shore is None:
+        return np.zeros(np.shape(x), bool)
+    a = math.radians(shore.angle)
+    along = -np.asarray(x) * math.sin(a) + np.asarray(y) * math.cos(a)
+    across = np.asarray(x) * math.cos(a) + np.asarray(y) * math.sin(a)
+    return across > shore.distance + shore.wiggle(along)
