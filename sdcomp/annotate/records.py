@@ -12,6 +12,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..render.water.optics import beam_attenuation, iops, swatch
 from ..scene.scene import Placement, Role
 from .masks import Frame, Instance
 from .rle import crop_to_rle, mask_to_rle
@@ -58,29 +59,47 @@ def _coco_annotation(frame: Frame, inst: Instance) -> dict:
 
 
 def image_meta(frame: Frame) -> dict:
-    """Per-image metadata (names follow SeaDronesSee's ``meta`` where they overlap)."""
+    """Per-image metadata (names follow SeaDronesSee's ``meta`` where they overlap): the
+    camera's pose and ground sampling distance, the water (its name, type, constituents,
+    mean beam attenuation, colour swatch), waves, sky and sun, what else is in the frame,
+    and what the camera did (look preset, exposure, blur, intrinsics ``K`` and distortion
+    ``dist`` of the recorded image)."""
     s = frame.scene
-    fx = s.effects
+    w = s.water
+    a, bb = iops(w.chl, w.cdom, w.tsm)
+    cam = frame.camera
+    motion = cam.get("motion_px", 0.0) if "motion" in cam.get("stages", ()) else 0.0
     return {
         "height_above_takeoff(meter)": round(s.camera.altitude, 4),
         "gimbal_pitch(degrees)": round(s.camera.pitch, 4),
         "gimbal_heading(degrees)": round(s.camera.heading, 4),
         "gsd(m/px)": round(frame.gsd, 6),
-        "water_color": s.water_name,
-        "water_rgb": list(s.water_rgb),
-        "turbidity": round(s.turbidity, 4),
-        "attenuation(1/m)": round(s.attenuation, 5),
-        "wind(m/s)": round(s.wind, 3),
-        "floor_depth(meter)": round(s.floor_depth, 3),
-        "sun_elevation(degrees)": round(s.sun_elevation, 3),
-        "sun_azimuth(degrees)": round(s.sun_azimuth, 3),
+        "water_color": w.name,
+        "water_type": w.water_type,
+        "water_rgb": list(w.rgb) if w.rgb is not None else list(swatch(a, bb)),
+        "chlorophyll(mg/m3)": round(w.chl, 4),
+        "cdom(1/m)": round(w.cdom, 4),
+        "suspended_solids(g/m3)": round(w.tsm, 4),
+        "turbidity": round(w.turbidity, 4),
+        "attenuation(1/m)": round(float(np.mean(beam_attenuation(a, bb))), 5),
+        "shallow_depth(meter)": None if w.depth is None else round(w.depth, 3),
+        "wind(m/s)": round(w.wind, 3),
+        "swell_height(meter)": round(w.swell_height, 3),
+        "sky": w.sky,
+        "cloud_cover": round(w.cloud_cover, 3),
+        "sun_elevation(degrees)": round(w.sun_elevation, 3),
+        "sun_azimuth(degrees)": round(w.sun_azimuth, 3),
         "shore": s.shore is not None,
         "hills": s.hills is not None,
         "clutter": s.count(Role.CLUTTER),
         "objects_placed": s.count(Role.OBJECT),
         "objects_dropped": frame.dropped,
-        "exposure(stops)": round(fx.exposure, 4),
-        "noise_sigma": round(fx.noise, 4),
-        "motion_blur_px": round(fx.motion_blur[0], 3) if fx.motion_blur else 0.0,
-        "defocus_sigma_px": round(fx.defocus_blur, 3) if fx.defocus_blur else 0.0,
+        "camera_look": s.look.preset,
+        "recording": s.look.recording,
+        "exposure_gain": round(float(cam.get("exposure_gain", 1.0)), 4),
+        "motion_blur_px": round(float(motion), 3),
+        "defocus_sigma_px": round(s.defocus_blur, 3) if s.defocus_blur else 0.0,
+        "camera_stages": list(cam.get("stages", ())),
+        "K": [[round(float(v), 4) for v in row] for row in cam["K"]] if "K" in cam else None,
+        "dist": [round(float(v), 6) for v in cam["dist"]] if "dist" in cam else None,
     }

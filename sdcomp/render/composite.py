@@ -12,7 +12,8 @@ from .layers import Layer
 
 
 def cast_shadow(image: np.ndarray, layer: Layer) -> None:
-    """Darken the background under ``layer``'s shadow (in place)."""
+    """Darken the background under ``layer``'s shadow (in place): the shadow takes
+    ``shadow_strength`` of the linear light, so sRGB levels keep ``(1 - s)**(1 / 2.2)``."""
     if layer.shadow_strength <= 0.01:
         return
     x0, y0, x1, y1 = layer.roi
@@ -29,7 +30,8 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
         return
     sub = a[ay0 - sy:ay1 - sy, ax0 - sx:ax1 - sx]
     region = image[ay0:ay1, ax0:ax1]
-    shade = (1.0 - layer.shadow_strength * sub)[..., None]
+    shade = np.power(1.0 - np.float32(layer.shadow_strength) * sub,
+                     np.float32(1 / 2.2))[..., None]
     region[:] = (region.astype(np.float32) * shade + 0.5).astype(np.uint8)
 
 

@@ -3,9 +3,9 @@
 For each placement: the stored pose nearest to the view of the (tilted) body
 (:func:`sprite_view`), the camera's projection linearised at the object (scale, rotation,
 foreshortening: a 2x3 affine map from sprite to image pixels), the mip level suited to that
-scale, the sprite's colour relit by the sun with the parts under the waterline attenuated and
-tinted by the water (:func:`shade`), its weight for the mask rule, and its shadow on the water
-(:func:`shadow`). The derivations are in docs/architecture.md.
+scale, the sprite's colour lit by the sun, the sky and the sea with the parts under a wavy
+waterline seen through the water (:func:`shade`), its weight for the mask rule, and its shadow
+in the water (:func:`shadow`). The derivations are in docs/architecture.md.
 """
 
 from __future__ import annotations
@@ -22,8 +22,11 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel, local_projection
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
-from .lighting import SUN, Lighting
-from .optics import REFRACTIVE_INDEX, fresnel, refracted_cos, sky_linear
+from .lighting import Lighting, irradiance_terms, lambert
+from .submerge import BLUR_PER_METRE, LUMA, WaterColumn, submerge, water_column, waterline_level
+from .water.optics import N_WATER
+
+RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
 
 
 @dataclass
@@ -46,6 +49,7 @@ class Layer:
     shadow_offset: tuple[float, float]  # pixels
     shadow_strength: float  # fraction of the light the shadow takes away
     shadow_blur: float  # pixels (Gaussian sigma)
+    full_area: float = 0.0  # pixels: the whole projected silhouette, inside the frame or not
 
 
 @dataclass(frozen=True)
@@ -137,62 +141,90 @@ def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level:
 
 
 def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView,
-          pl: Placement, scene: Scene, lit: Lighting) -> None:
-    """Write the relit, submerged, premultiplied sRGB colour (0..255) of a sprite level
-    ``prepared`` (:meth:`SpriteSource.prepared`) to ``out[..., :3]`` and its weight
-    (coverage x water transmittance) to ``out[..., 4]``; ``out`` is (n, n, 5) float32,
-    ``height`` (n, n) float32 metres above the sea level of the floating body.
+          pl: Placement, scene: Scene, lit: Lighting, column: WaterColumn,
+          pitch_m: float, ripple_seed: tuple[int, int]) -> None:
+    """Write the lit, submerged, premultiplied sRGB colour (0..255) of a sprite level
+    ``prepared`` (:meth:`SpriteSource.prepared`) to ``out[..., :3]`` and its weight to
+    ``out[..., 4]``; ``out`` is (n, n, 5) float32, ``height`` (n, n) float32 metres above
+    the sea level of the floating body, ``pitch_m`` metres per sprite pixel,
+    ``ripple_seed`` the seed of its waterline's ripples.
 
-    In linear RGB, with ``t`` the water's transmittance down to a pixel and back, ``r`` the
-    Fresnel reflectance toward the camera and ``u`` 1 under water, 0 above:
-    ``albedo x light x t x (1 - r u) + body x (1 - r) x (1 - t) + sky x r u``, times the
-    camera gain.
-    """
+    Linear radiance: Lambertian under the sun, the sky and the sea's upwelling light
+    (:func:`~sdcomp.render.lighting.lambert`) above a wavy waterline; below it, lit by the
+    refracted sun and seen through the water (:func:`~sdcomp.render.submerge.submerge`);
+    hazed with the distance; times the exposure gain, then sRGB."""
     alpha, albedo, normal = prepared[:3]
-    sun, wb, body = lit.sun, lit.wb, lit.body
-    sun_view = (view.basis @ (view.rot.T @ sun)).astype(np.float32)
-    light = normal @ sun_view
-    np.maximum(light, 0.0, out=light)
-    light *= np.float32(SUN * 0.5 * float(sun[2] > 0))
-    light += np.float32(scene.ambient)
-    w, h = scene.model.width, scene.model.height
-    u0, v0 = view.centre
-    r2 = ((u0 - w / 2) ** 2 + (v0 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
-    gain = wb * np.float32(1.0 - scene.effects.vignetting * min(r2, 1.0))
-    cz = float(view.towards_camera[2])
-    r = float(fresnel(cz))
-    k = scene.attenuation * (1.0 / float(refracted_cos(cz)) + 1.0 / lit.cos_sun_t)
-    depth = np.subtract(np.float32(pl.draft), height)  # metres under the surface
-    np.maximum(depth, 0.0, out=depth)
-    under = depth > 0
-    trans = np.exp(depth * np.float32(-k))
-    np.multiply(alpha, trans, out=out[..., 4])
-    light *= trans
-    light *= 1.0 - np.float32(r) * under
-    lin = albedo * (np.asarray(pl.tint, np.float32) * gain)
-    lin *= light[..., None]
-    # + (1 - t) x body x (1 - r) + u x sky x r: one (n, n, 2) @ (2, 3) product
-    terms = np.stack([1.0 - trans, under], axis=-1, dtype=np.float32)
-    lin += terms @ np.stack([body * gain * np.float32(1.0 - r),
-                             sky_linear(cz) * gain * np.float32(r)])
+    water = lit.water
+    to_view = (view.basis @ view.rot.T).astype(np.float32)  # world -> the pose's frame
+    up_dir = to_view[:, 2]
+    sun, sky, up = irradiance_terms(water, *view.centre)
+    tinted = albedo * np.asarray(pl.tint, np.float32)
+    above = lambert(tinted, normal, to_view @ lit.sun.astype(np.float32), up_dir, sun, sky,
+                    up)
+    params = scene.water
+    ripples = waterline_level(height.shape, pitch_m, ripple_height(params.wind),
+                              RIPPLE_LENGTH, ripple_seed)
+    depth = (np.float32(pl.draft) + ripples) - height
+    if float(depth.max()) > -0.02:
+        below = lambert(tinted, normal, to_view @ column.sun_dir.astype(np.float32), up_dir,
+                        sun, sky, up)
+        lin, weight = submerge(above, below, alpha, depth, column, pitch_m,
+                               BLUR_PER_METRE + 0.25 * slope_sd(params.wind))
+    else:
+        lin, weight = above, alpha
+    haze = math.exp(-float(np.linalg.norm(scene.camera.position - np.array([pl.x, pl.y, 0.0])))
+                    / params.visibility)
+    if haze < 0.999:
+        lin = lin * np.float32(haze) + water.sky.horizon_rgb * np.float32(1.0 - haze)
+    lin *= np.float32(water.gain)
+    out[..., 4] = weight
     np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
 
 
-def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting
-           ) -> tuple[tuple[float, float], float, float]:
-    """The object's shadow on the water: (offset pixels, strength, blur sigma pixels).
+def slope_sd(wind: float) -> float:
+    """Standard deviation of the sea's slope along one axis at ``wind`` m/s (Cox & Munk
+    1954, clean surface: mean square slope 0.003 + 0.00512 U)."""
+    return math.sqrt((0.003 + 0.00512 * max(wind, 0.0)) / 2.0)
 
-    It falls under water at the depth light scatters back from (or on the floor in clear
-    water), displaced away from the sun."""
-    c = scene.attenuation
-    d_s = min(1.0 / c, scene.floor_depth)
-    sx, sy, _ = lit.sun.tolist()
-    sun_h = max(math.hypot(sx, sy), 1e-9)
-    k = d_s * (sun_h / REFRACTIVE_INDEX) / max(lit.cos_sun_t, 0.05) / sun_h
-    off = view.jac @ np.array([-sx * k, -sy * k, -d_s / REFRACTIVE_INDEX])
-    t_floor = math.exp(-c * scene.floor_depth * 2)
-    strength = 0.45 * (1 - math.exp(-2 * c * d_s)) + 0.45 * t_floor
-    blur = min(max(0.08 * d_s * model.fx / view.depth, 0.0), 12.0)  # metres / (m per px)
+
+def ripple_height(wind: float) -> float:
+    """Standard deviation (metres) of the waves shorter than an object that run along its
+    hull: slope times wavelength over 2 pi at :data:`RIPPLE_LENGTH`."""
+    return slope_sd(wind) * RIPPLE_LENGTH / (2 * math.pi)
+
+
+def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
+           column: WaterColumn, size_m: float) -> tuple[tuple[float, float], float, float]:
+    """The object's shadow in the water: (offset pixels, strength, blur sigma pixels).
+
+    What a shadow takes away is the direct sun's share of the light scattered back up by
+    the water under it (or reflected by a shallow bottom): that light comes from a depth of
+    about ``1 / (2 K_d)`` (or the bottom's), where the shadow lies displaced away from the
+    sun along the refracted sun ray and spread by scattering, so a shadow is strong and
+    sharp in turbid water and faint and diffuse in clear water. ``size_m`` is the object's
+    size across, metres."""
+    water = lit.water
+    s = lit.sun
+    sun, l_w = water.at(*view.centre)
+    e_dir = sun * max(float(s[2]), 0.0)
+    e_all = e_dir + water.sky_irradiance
+    lum = LUMA.astype(np.float64)
+    share = float(e_dir @ lum) / max(float(e_all @ lum), 1e-9)
+    if share <= 0.01:
+        return (0.0, 0.0), 0.0, 0.0
+    from_water = float(l_w @ lum) / max(float((l_w + column.reflection) @ lum), 1e-9)
+    kd = float(np.mean(water.diffuse_attenuation))
+    z = 1.0 / (2.0 * max(kd, 1e-3))
+    if scene.water.depth is not None:
+        z = min(z, scene.water.depth)
+    sw = column.sun_dir
+    sun_h = max(math.hypot(float(sw[0]), float(sw[1])), 1e-9)
+    drift = z * sun_h / max(float(sw[2]), 0.05)  # metres: horizontal shift at depth z
+    spread = 0.3 * z + 0.5 * drift
+    off = view.jac @ np.array([-sw[0] / sun_h * drift, -sw[1] / sun_h * drift,
+                               -z / N_WATER])
+    strength = share * from_water * size_m / (size_m + spread)
+    blur = min(max(spread * model.fx / view.depth, 0.0), 30.0)
     return (float(off[0]), float(off[1])), float(strength), blur
 
 
@@ -208,10 +240,14 @@ def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Ligh
     height = prepared[3]
     if pl.roll or pl.pitch:
         height = tilted_heights(height, view.basis, src, view.level, view.rot[2])
+    pitch_m = src.metres_per_pixel * (1 << view.level)
+    _, l_w = lit.water.at(*view.centre)
+    column = water_column(lit.water, view.towards_camera, l_w, slope_sd(scene.water.wind))
     # channels: premultiplied sRGB colour (3), coverage, weight
     stack = np.empty(prepared[0].shape + (5,), np.float32)
     stack[..., 3] = prepared[0]
-    shade(stack, prepared, height, view, pl, scene, lit)
+    shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
+          (scene.water.seed, i))
     x0, y0, x1, y1 = view.roi
     warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -221,9 +257,12 @@ def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Ligh
     # to 1 (within rounding): capped at 1 in place
     coverage = warped[..., 3:5]
     np.minimum(coverage, 1.0, out=coverage)
-    offset, strength, blur = shadow(view, model, scene, lit)
+    size_m = math.sqrt(float(prepared[0].sum())) * pitch_m
+    offset, strength, blur = shadow(view, model, scene, lit, column, size_m)
+    a = view.affine
+    full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
     return Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
-                 warped[..., 3], warped[..., 4], offset, strength, blur)
+                 warped[..., 3], warped[..., 4], offset, strength, blur, full)
 
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource]

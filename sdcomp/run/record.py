@@ -73,7 +73,7 @@ def make_record(gen: Generator, index: int, layout: DatasetLayout,
     frame = gen.render(index)
     name = image_name(index, config.image_format)
     mask_name = image_name(index, "png")
-    data = encode_image(frame.image, config.image_format, frame.scene.effects.jpeg_quality)
+    data = encode_image(frame.image, config.image_format, frame.scene.jpeg_quality)
     files.write_file(layout.images / name, data)
     files.write_file(layout.masks / mask_name, encode_png16(frame.instances))
     anns = coco_annotations(frame)
