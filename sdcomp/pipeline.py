@@ -103,10 +103,12 @@ class Generator:
         self.names = {c["id"]: c["name"] for c in config.categories}
 
     def warm(self) -> None:
-        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`, 0.2 s): call
-        it before forking workers, which then inherit them. Frames wider or higher than
-        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them it
-        does nothing."""
+        """Build every water tile (:meth:`WaterTextures.build_all`, 1.3 s) and prepare the
+        sprites' small mip levels (:meth:`SpriteSource.warm`, 0.2 s) now: call it before
+        forking workers, which then inherit them. Frames wider or higher than
+        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them the
+        sprites are not prepared."""
+        self.compositor.assets.textures.water.build_all()
         if max(self.model.width, self.model.height) > WARM_MAX_SIDE:
             return
         for src in self.compositor.assets.sprites.values():

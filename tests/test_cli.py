@@ -94,7 +94,7 @@ def test_python_m_forms_still_work(module):
 def test_dump_config_round_trip(tmp_path):
     # defaults < preset < config file < flags, all in play
     (tmp_path / "base.toml").write_text('altitude = "12-18"\nwater = ["green", "10,20,30"]\n'
-                                        "rocks = 0.1\n")
+                                        "shallow = 0.1\n")
     argv = ["generate", "--preset", "paper-alt30", "--config", tmp_path / "base.toml",
             "--pitch", "40-90", "--format", "coco,yolo", "--yolo-seg", "--fov", "80.5",
             "--out", tmp_path / "never"]

@@ -72,8 +72,9 @@ class Frame:
 
     @property
     def gsd(self) -> float:
-        """Metres per pixel (along x) at the image centre."""
-        return self.scene.gsd
+        """Metres per pixel (along x) at the image centre of the recorded image (the lens's
+        zoom magnifies it)."""
+        return self.scene.gsd / float(self.camera.get("zoom", 1.0))
 
 
 def instance_map(scene: Scene, layers: list[Layer], rule: AnnotationRule

@@ -12,7 +12,7 @@ import numpy as np
 from ..scene.camera import CameraModel, CameraPose, horizon_row, project
 from ..scene.scene import Shore
 from ..util.colour import linear_to_srgb, srgb_to_linear
-from .ground import offsets
+from .ground import ground_view, offsets
 from .textures import Texture
 from .water import WaterLight
 
@@ -66,8 +66,8 @@ def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Sho
     thick = max(1, int(round(0.6 / max(pose.altitude / model.fx, 1e-6))))
     cv2.polylines(foam, [line], False, 255, thickness=thick, lineType=cv2.LINE_AA,
                   shift=4)
-    gx, gy = model.nadir_gsd(pose.altitude)
-    tex = land.view(*offsets(np.random.default_rng(list(seed))), gx * w, gy * h, w, h)
+    tex = ground_view(model, pose.altitude, pose.pitch, land,
+                      *offsets(np.random.default_rng(list(seed))))
     scale = diffuse_scale(light)
     bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, foam))
     win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or foam is

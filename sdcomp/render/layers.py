@@ -22,8 +22,16 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel, local_projection
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
+from .foam import FOAM_ALBEDO, contact_foam, ring_strength
 from .lighting import Lighting, irradiance_terms, lambert
-from .submerge import BLUR_PER_METRE, LUMA, WaterColumn, submerge, water_column, waterline_level
+from .submerge import (
+    BLUR_PER_METRE,
+    LUMA,
+    WaterColumn,
+    submerge,
+    water_columns,
+    waterline_level,
+)
 from .water.optics import N_WATER
 
 RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
@@ -64,6 +72,7 @@ class SpriteView:
     centre: tuple[float, float]  # the body origin's image position, pixels
     depth: float  # metres along the optical axis
     jac: np.ndarray  # (2, 3) image pixels per world metre at the object
+    to_frame: np.ndarray  # (2, 3) float64 sprite pixels -> frame pixels
     affine: np.ndarray  # (2, 3) float32 sprite pixels -> roi pixels
     roi: tuple[int, int, int, int]  # x0, y0, x1, y1 pixels, inside the frame
 
@@ -102,8 +111,24 @@ def sprite_view(model: CameraModel, lit: Lighting, camera: np.ndarray, pl: Place
     (a00, a01), (a10, a11) = (a * (1 << level)).tolist()
     c = 0.5 - n / 2
     tx, ty = u0 - 0.5 + (a00 + a01) * c, v0 - 0.5 + (a10 + a11) * c
-    # the sprite's corners (-0.5 and n - 0.5 in each direction) in the frame
-    lo, hi = -0.5, n - 0.5
+    to_frame = np.array([[a00, a01, tx], [a10, a11, ty]])
+    placed = canvas_placement(to_frame, n, 0, model)
+    if placed is None:
+        return None
+    affine, roi = placed
+    return SpriteView(pose_i, level, rot, vb, d_world, (u0, v0), z, jac, to_frame, affine,
+                      roi)
+
+
+def canvas_placement(to_frame: np.ndarray, n: int, pad: int, model: CameraModel
+                     ) -> tuple[np.ndarray, tuple[int, int, int, int]] | None:
+    """(affine (2, 3) float32 canvas pixels -> roi pixels, roi (x0, y0, x1, y1) inside the
+    frame) of an (n + 2 pad)-pixel square canvas whose pixel ``pad`` is the sprite's pixel 0
+    (``to_frame``: sprite pixels -> frame pixels); None when it misses the frame."""
+    (a00, a01, tx), (a10, a11, ty) = to_frame.tolist()
+    tx, ty = tx - (a00 + a01) * pad, ty - (a10 + a11) * pad
+    # the canvas's corners (-0.5 and n + 2 pad - 0.5 in each direction) in the frame
+    lo, hi = -0.5, n + 2 * pad - 0.5
     xs = [a00 * p + a01 * q + tx for p in (lo, hi) for q in (lo, hi)]
     ys = [a10 * p + a11 * q + ty for p in (lo, hi) for q in (lo, hi)]
     x0 = max(math.floor(min(xs)), 0)
@@ -112,9 +137,8 @@ def sprite_view(model: CameraModel, lit: Lighting, camera: np.ndarray, pl: Place
     y1 = min(math.ceil(max(ys)) + 1, model.height)
     if x1 <= x0 or y1 <= y0:
         return None
-    affine = np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32)
-    return SpriteView(pose_i, level, rot, vb, d_world, (u0, v0), z, jac, affine,
-                      (x0, y0, x1, y1))
+    return (np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32),
+            (x0, y0, x1, y1))
 
 
 def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level: int,
@@ -142,12 +166,13 @@ def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level:
 
 def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView,
           pl: Placement, scene: Scene, lit: Lighting, column: WaterColumn,
-          pitch_m: float, ripple_seed: tuple[int, int]) -> None:
+          pitch_m: float, ripple_seed: tuple[int, int]) -> np.ndarray:
     """Write the lit, submerged, premultiplied sRGB colour (0..255) of a sprite level
     ``prepared`` (:meth:`SpriteSource.prepared`) to ``out[..., :3]`` and its weight to
     ``out[..., 4]``; ``out`` is (n, n, 5) float32, ``height`` (n, n) float32 metres above
     the sea level of the floating body, ``pitch_m`` metres per sprite pixel,
-    ``ripple_seed`` the seed of its waterline's ripples.
+    ``ripple_seed`` the seed of its waterline's ripples. Returns the depth (n, n) float32
+    of each pixel under the wavy surface, metres (negative: above it).
 
     Linear radiance: Lambertian under the sun, the sky and the sea's upwelling light
     (:func:`~sdcomp.render.lighting.lambert`) above a wavy waterline; below it, lit by the
@@ -157,7 +182,7 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     water = lit.water
     to_view = (view.basis @ view.rot.T).astype(np.float32)  # world -> the pose's frame
     up_dir = to_view[:, 2]
-    sun, sky, up = irradiance_terms(water, *view.centre)
+    sun, sky, up = irradiance_terms(water, column.sun, column.deep)
     tinted = albedo * np.asarray(pl.tint, np.float32)
     above = lambert(tinted, normal, to_view @ lit.sun.astype(np.float32), up_dir, sun, sky,
                     up)
@@ -179,6 +204,7 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     lin *= np.float32(water.gain)
     out[..., 4] = weight
     np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
+    return depth
 
 
 def slope_sd(wind: float) -> float:
@@ -205,8 +231,8 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
     size across, metres."""
     water = lit.water
     s = lit.sun
-    sun, l_w = water.at(*view.centre)
-    e_dir = sun * max(float(s[2]), 0.0)
+    l_w = column.deep
+    e_dir = column.sun * max(float(s[2]), 0.0)
     e_all = e_dir + water.sky_irradiance
     lum = LUMA.astype(np.float64)
     share = float(e_dir @ lum) / max(float(e_all @ lum), 1e-9)
@@ -228,26 +254,22 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
     return (float(off[0]), float(off[1])), float(strength), blur
 
 
-def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Lighting
-               ) -> Layer | None:
-    """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`; None when it is
-    not in the frame."""
+def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scene: Scene,
+                lit: Lighting, column: WaterColumn) -> list[Layer]:
+    """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`, seen as ``view``
+    (:func:`sprite_view`) through the water ``column``, and the foam ring around its
+    waterline when it has one (:func:`foam_layer`)."""
     model = scene.model
-    view = sprite_view(model, lit, scene.camera.position, pl, src)
-    if view is None:
-        return None
     prepared = src.prepared(view.pose, view.level)
     height = prepared[3]
     if pl.roll or pl.pitch:
         height = tilted_heights(height, view.basis, src, view.level, view.rot[2])
     pitch_m = src.metres_per_pixel * (1 << view.level)
-    _, l_w = lit.water.at(*view.centre)
-    column = water_column(lit.water, view.towards_camera, l_w, slope_sd(scene.water.wind))
     # channels: premultiplied sRGB colour (3), coverage, weight
     stack = np.empty(prepared[0].shape + (5,), np.float32)
     stack[..., 3] = prepared[0]
-    shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
-          (scene.water.seed, i))
+    depth = shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
+                  (scene.water.seed, i))
     x0, y0, x1, y1 = view.roi
     warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -261,18 +283,61 @@ def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Ligh
     offset, strength, blur = shadow(view, model, scene, lit, column, size_m)
     a = view.affine
     full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
-    return Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
-                 warped[..., 3], warped[..., 4], offset, strength, blur, full)
+    layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
+                  warped[..., 3], warped[..., 4], offset, strength, blur, full)
+    foam = foam_layer(i, view, prepared[0], depth, pitch_m, scene, lit, column)
+    return [layer] if foam is None else [layer, foam]
+
+
+def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
+               pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
+               ) -> Layer | None:
+    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`) as a
+    :class:`Layer` of role WATER just in front of the object, lit like the water's surface;
+    None when there is none."""
+    ring = contact_foam(alpha, depth, pitch_m, ring_strength(scene.water.wind),
+                        (scene.water.seed, i))
+    if ring is None:
+        return None
+    pad, cover = ring
+    placed = canvas_placement(view.to_frame, alpha.shape[0], pad, scene.model)
+    if placed is None:
+        return None
+    affine, roi = placed
+    water = lit.water
+    e = column.sun * max(float(lit.sun[2]), 0.0) + water.sky_irradiance
+    lin = np.clip(e * (FOAM_ALBEDO / math.pi * water.gain), 0.0, 1.0)
+    srgb = linear_to_srgb(lin.astype(np.float32)) * np.float32(255.0)
+    stack = np.empty(cover.shape + (5,), np.float32)
+    stack[..., :3] = cover[..., None] * srgb
+    stack[..., 3] = cover
+    stack[..., 4] = cover
+    x0, y0, x1, y1 = roi
+    warped = cv2.warpAffine(stack, affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
+                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    coverage = warped[..., 3:5]
+    np.minimum(coverage, 1.0, out=coverage)
+    return Layer(i, Role.WATER, 0, view.depth - 1e-3, roi, warped[..., :3], warped[..., 3],
+                 warped[..., 4], (0.0, 0.0), 0.0, 0.0)
 
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource]
                  ) -> list[Layer]:
     """The layers of every placement in the frame, far to near; ``sprites`` maps asset
     keys to their sprites."""
-    layers = []
+    seen = []
     for i, pl in enumerate(scene.placements):
-        layer = make_layer(i, pl, sprites[pl.asset], scene, lit)
-        if layer is not None:
-            layers.append(layer)
+        src = sprites[pl.asset]
+        view = sprite_view(scene.model, lit, scene.camera.position, pl, src)
+        if view is not None:
+            seen.append((i, pl, src, view))
+    if not seen:
+        return []
+    local = [lit.water.at(*view.centre) for *_, view in seen]  # (sun, l_w) at each
+    columns = water_columns(lit.water, np.array([view.towards_camera for *_, view in seen]),
+                            np.array([lw for _, lw in local]), np.array([s for s, _ in local]),
+                            slope_sd(scene.water.wind))
+    layers = [lay for (i, pl, src, view), column in zip(seen, columns, strict=True)
+              for lay in make_layers(i, pl, src, view, scene, lit, column)]
     layers.sort(key=lambda lay: -lay.depth)  # far first
     return layers

@@ -47,14 +47,16 @@ def lighting(scene: Scene, water: WaterLight) -> Lighting:
     return Lighting(camera_basis(pose.pitch, pose.heading), water)
 
 
-def irradiance_terms(water: WaterLight, u: float, v: float
+def irradiance_terms(water: WaterLight, sun: np.ndarray, l_w: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(sun, sky, up) (3,) float32 irradiances at image pixel (``u``, ``v``) on the sea:
-    the direct sun on a surface facing it (cloud shadows included), the sky's diffuse
+    """(sun, sky, up) (3,) float32 irradiances on the sea where the direct sun's
+    irradiance is ``sun`` (3,) and the water-leaving radiance ``l_w`` (3,) (at a pixel:
+    :meth:`WaterLight.at`): the direct sun on a surface facing it, the sky's diffuse
     irradiance on a horizontal surface, and the light coming up from the sea onto a surface
     facing down (the water-leaving light, ``pi L_w``, and the sea's reflection of the
     light from above)."""
-    sun, l_w = water.at(u, v)
+    sun = np.asarray(sun, np.float32)
+    l_w = np.asarray(l_w, np.float32)
     sky = np.asarray(water.sky_irradiance, np.float32)
     down = sun * np.float32(max(float(water.sun[2]), 0.0)) + sky
     up = np.float32(math.pi) * l_w + np.float32(SEA_DIFFUSE_REFLECTANCE) * down

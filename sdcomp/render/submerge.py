@@ -35,7 +35,8 @@ class WaterColumn:
     the module docstring): ``k_obj`` and ``k_col`` (3,) float32 per metre of depth (the
     object's path ``K_d + k_B`` and the column's ``K_d + k_C``), ``deep`` (3,) the deep
     water's radiance, ``reflection`` (3,) the surface's reflected sky (``R L_sky``),
-    ``transmission`` ``(1 - R) / n**2``, ``sun_dir`` (3,) the refracted sun (world)."""
+    ``transmission`` ``(1 - R) / n**2``, ``sun_dir`` (3,) the refracted sun (world), ``sun``
+    (3,) the direct sun's irradiance at the object (cloud shadows)."""
 
     k_obj: np.ndarray
     k_col: np.ndarray
@@ -43,32 +44,47 @@ class WaterColumn:
     reflection: np.ndarray
     transmission: float
     sun_dir: np.ndarray
+    sun: np.ndarray
 
 
-def water_column(light: WaterLight, towards_camera: np.ndarray, deep: np.ndarray,
-                 roughness: float) -> WaterColumn:
-    """The :class:`WaterColumn` seen along the unit vector ``towards_camera`` (3,) (world,
-    from the object to the camera) in water of radiance ``deep`` (3,) whose surface slopes
-    have the standard deviation ``roughness`` (radians, blurring the reflected sky)."""
-    cz = min(max(float(towards_camera[2]), 1e-3), 1.0)
-    cos_w = float(refracted_cos(cz))
+def water_columns(light: WaterLight, towards_camera: np.ndarray, deep: np.ndarray,
+                  sun: np.ndarray, roughness: float) -> list[WaterColumn]:
+    """The :class:`WaterColumn` of each of N objects: seen along the unit vectors
+    ``towards_camera`` (N, 3) (world, from each object to the camera) in water of radiance
+    ``deep`` (N, 3) under direct sun ``sun`` (N, 3) whose surface slopes have the standard
+    deviation ``roughness`` (radians, blurring the reflected sky). One evaluation of the
+    sky for all of them."""
+    t = np.asarray(towards_camera, np.float64).reshape(-1, 3)
+    cz = np.clip(t[:, 2], 1e-3, 1.0)
+    cos_w = np.asarray(refracted_cos(cz))
     a = np.asarray(light.absorption, np.float64)
     bb = np.asarray(light.backscatter, np.float64)
     u = bb / np.maximum(a + bb, 1e-9)
-    k_b = 1.04 * np.sqrt(1 + 5.4 * u) * (a + bb) / cos_w
-    k_c = 1.03 * np.sqrt(1 + 2.4 * u) * (a + bb) / cos_w
-    kd = np.asarray(light.diffuse_attenuation, np.float64)
-    r = float(fresnel(cz))
-    mirror = np.array([-towards_camera[0], -towards_camera[1], cz])
-    sky = light.sky.radiance(mirror[None], np.array([2.0 * roughness]))[0]
-    s = np.asarray(light.sun, np.float64)
-    s_h = math.hypot(float(s[0]), float(s[1]))
-    sin_w = min(s_h / N_WATER, 1.0)  # the sun refracted into the water (Snell)
-    sun_w = np.array([s[0] / max(s_h, 1e-9) * sin_w, s[1] / max(s_h, 1e-9) * sin_w,
-                      math.sqrt(1.0 - sin_w ** 2)]) if s[2] > 0 else s
-    return WaterColumn((kd + k_b).astype(np.float32), (kd + k_c).astype(np.float32),
-                       np.asarray(deep, np.float32), (r * sky).astype(np.float32),
-                       (1.0 - r) / N_WATER ** 2, sun_w)
+    k_b = (1.04 * np.sqrt(1 + 5.4 * u) * (a + bb))[None] / cos_w[:, None]  # (N, 3)
+    k_c = (1.03 * np.sqrt(1 + 2.4 * u) * (a + bb))[None] / cos_w[:, None]
+    kd = np.asarray(light.diffuse_attenuation, np.float64)[None]
+    r = np.asarray(fresnel(cz), np.float64)
+    mirror = np.stack([-t[:, 0], -t[:, 1], cz], axis=1)
+    sky = light.sky.radiance(mirror, np.full(len(t), 2.0 * roughness))
+    reflection = (r[:, None] * sky).astype(np.float32)
+    k_obj, k_col = (kd + k_b).astype(np.float32), (kd + k_c).astype(np.float32)
+    sun_w = refracted_sun(np.asarray(light.sun, np.float64))
+    deep = np.asarray(deep, np.float32).reshape(-1, 3)
+    sun = np.asarray(sun, np.float32).reshape(-1, 3)
+    return [WaterColumn(k_obj[i], k_col[i], deep[i], reflection[i],
+                        float((1.0 - r[i]) / N_WATER ** 2), sun_w, sun[i])
+            for i in range(len(t))]
+
+
+def refracted_sun(sun: np.ndarray) -> np.ndarray:
+    """(3,) unit vector towards the sun as seen under the water (Snell's law at a flat
+    surface); ``sun`` itself when it is below the horizon."""
+    s_h = math.hypot(float(sun[0]), float(sun[1]))
+    if sun[2] <= 0:
+        return sun
+    sin_w = min(s_h / N_WATER, 1.0)
+    return np.array([sun[0] / max(s_h, 1e-9) * sin_w, sun[1] / max(s_h, 1e-9) * sin_w,
+                     math.sqrt(1.0 - sin_w ** 2)])
 
 
 def waterline_level(shape: tuple[int, int], pitch_m: float, amplitude: float,
@@ -107,7 +123,8 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     coverage; ``depth`` (n, n) float32 metres under the (wavy) surface, negative above it.
     The waterline is soft over one sprite pixel (``pitch_m`` metres, at least a centimetre);
     submerged parts are blurred by ``blur_per_metre`` metres (Gaussian sigma) per metre of
-    depth. The weight (:mod:`sdcomp.annotate`) is ``alpha`` times the luminance of the
+    depth (one blur, for 1.5 times the submerged part's mean depth, mixed in with depth).
+    The weight (:mod:`sdcomp.annotate`) is ``alpha`` times the luminance of the
     object's transmittance ``exp(-k_obj d)``: the fraction of the pixel's light that is the
     object's."""
     eps = max(pitch_m, 0.01)
@@ -120,8 +137,8 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     seen = below * t_obj
     seen *= np.float32(column.transmission)
     seen += (1.0 - t_col) * column.deep + column.reflection
-    sigma = blur_per_metre * float(np.percentile(d[under > 0.5], 75)) / pitch_m \
-        if (under > 0.5).any() else 0.0
+    wet = d[under > 0.5]
+    sigma = blur_per_metre * 1.5 * float(wet.mean()) / pitch_m if wet.size else 0.0
     if sigma >= 0.5:
         # premultiplied blur, so the transparent surround does not darken the edge
         k = np.clip(d * np.float32(1.0 / max(float(d.max()), 1e-6)), 0.0, 1.0)[..., None]

@@ -16,7 +16,7 @@ from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
 from .look_table import sample_look
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
-from .water import WATER_TYPES, WaterParams, parse_water
+from .water import WaterParams, constituents, parse_water
 
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
 EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
@@ -61,7 +61,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     quality = int(config.jpeg_quality.sample(rng))
     seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
     return Scene(index, model, pose, water, placements, shore, hills, look, defocus, quality,
-                 seeds, config.shadows)
+                 seeds, config.shadows, config.glitter)
 
 
 def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
@@ -78,8 +78,9 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterPara
     name, types, rgb = parse_water(config.water[int(rng.integers(len(config.water)))])
     wtype = types[int(rng.integers(len(types)))]
     turbidity = config.turbidity.sample(rng)
-    chl, cdom, tsm = (lo * (hi / lo) ** min(max(turbidity + rng.uniform(-0.15, 0.15), 0.0),
-                                            1.0) for lo, hi in WATER_TYPES[wtype])
+    # each constituent at its own place within +-0.15 of the turbidity
+    chl, cdom, tsm = (constituents(wtype, turbidity + rng.uniform(-0.15, 0.15))[k]
+                      for k in range(3))
     patchiness, patch_scale = float(rng.uniform(0.05, 0.45)), _log_uniform(rng, 25.0, 400.0)
     depth = config.floor_depth.sample(rng)
     shallow = rng.random() < config.shallow

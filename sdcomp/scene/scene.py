@@ -27,6 +27,7 @@ class Role(enum.Enum):
 
     OBJECT = "object"  # an object of interest: annotated
     CLUTTER = "clutter"  # a distractor: never annotated
+    WATER = "water"  # what an object does to the water (foam): drawn, never annotated
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,7 @@ class Scene:
     jpeg_quality: int
     seeds: FeatureSeeds
     shadows: bool = True  # object shadows on the water and floor
+    glitter: bool = True  # the sun's glitter drawn as sparkles
 
     @property
     def gsd(self) -> float:

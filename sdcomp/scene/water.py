@@ -99,6 +99,14 @@ class WaterParams:
     seed: int = 0
 
 
+def constituents(water_type: str, turbidity: float) -> tuple[float, float, float]:
+    """(chl mg/m^3, CDOM 1/m, TSM g/m^3) of ``water_type`` at ``turbidity`` (0..1, clipped):
+    the place in each of the type's ranges (:data:`WATER_TYPES`), on a log scale."""
+    t = min(max(float(turbidity), 0.0), 1.0)
+    chl, cdom, tsm = (lo * (hi / lo) ** t for lo, hi in WATER_TYPES[water_type])
+    return chl, cdom, tsm
+
+
 def parse_water(text: str) -> tuple[str, tuple[str, ...], tuple[int, int, int] | None]:
     """A water name: a type, a preset or ``R,G,B`` 0-255.
 

@@ -309,24 +309,35 @@ def vignette_gain(field_r2: np.ndarray, strength: float) -> np.ndarray:
     return (1.0 - strength * (1.0 - cos4)).astype(np.float32)
 
 
-_VIGNETTE_CACHE: OrderedDict = OrderedDict()
+_FALLOFF_CACHE: OrderedDict = OrderedDict()
+
+
+def falloff_index(lens: LensMaps) -> np.ndarray:
+    """(H, W, 3) uint8: ``255 (1 - cos^4 theta)`` of each output pixel's field angle, the
+    vignetting's fall-off quantised to 256 steps (a fall-off of at most ~0.8 at the corners
+    of the widest presets: steps of 0.004 in the linear gain). Cached per lens (8 entries):
+    a look's strength then costs one 256-entry table (:func:`vignette_map`)."""
+    hit = _FALLOFF_CACHE.get(id(lens))
+    if hit is not None and hit[0] is lens:
+        return hit[1]
+    cos4 = 1.0 / np.square(1.0 + lens.field_r2)
+    idx = np.clip(np.rint(255.0 * (1.0 - cos4)), 0, 255).astype(np.uint8)
+    out = np.repeat(idx[..., None], 3, axis=2)
+    _FALLOFF_CACHE[id(lens)] = (lens, out)
+    while len(_FALLOFF_CACHE) > 8:
+        _FALLOFF_CACHE.popitem(last=False)
+    return out
 
 
 def vignette_map(lens: LensMaps, strength: float) -> np.ndarray:
     """(H, W, 3) uint8 gain map on sRGB levels: ``255 g^(1/2.2)`` of the linear gain g of
     :func:`vignette_gain` (multiplying sRGB levels by ``g^(1/2.2)`` scales the linear value
-    by g to within the sRGB curve's departure from a 2.2 power). Cached (8 entries)."""
-    key = (id(lens), strength)
-    hit = _VIGNETTE_CACHE.get(key)
-    if hit is not None and hit[0] is lens:
-        return hit[1]
-    g = vignette_gain(lens.field_r2, strength) ** VIGNETTE_POWER
-    m = np.clip(np.rint(255.0 * g), 0, 255).astype(np.uint8)
-    m = np.repeat(m[..., None], 3, axis=2)
-    _VIGNETTE_CACHE[key] = (lens, m)
-    while len(_VIGNETTE_CACHE) > 8:
-        _VIGNETTE_CACHE.popitem(last=False)
-    return m
+    by g to within the sRGB curve's departure from a 2.2 power), through a table of the
+    quantised fall-off (:func:`falloff_index`)."""
+    x = np.arange(256, dtype=np.float64) / 255.0
+    g = np.maximum(1.0 - strength * x, 0.0) ** VIGNETTE_POWER
+    table = np.clip(np.rint(255.0 * g), 0, 255).astype(np.uint8)
+    return cv2.LUT(falloff_index(lens), table)
 
 
 def apply_vignette(image: np.ndarray, gain_map: np.ndarray) -> np.ndarray:

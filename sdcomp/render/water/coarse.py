@@ -233,10 +233,12 @@ def sea_terms(plan, basis, alt, params: WaterParams, sky: Sky, textures: WaterTe
     n_fac = np.repeat(facets(fp_rows[prow]), gw)
     dens = SPARKLE_DENSITY * n_fac / N_REF  # sparkles per pixel per unit glint radiance
     lam = _saturate(gl["mean"] * haze[:, 0] * dens, n_fac)
-    glint_white = lam * quantum(n_fac)
+    q_white = quantum(n_fac)
+    glint_white = lam * q_white
     return {
         "shape": (gh, gw), "L0": rad[0], "Lu": rad[1], "Lc": rad[2],
-        "glint_white": glint_white, "glint_log": gl, "density": dens,
+        "glint_white": glint_white, "glint_log": gl, "density": dens, "lam": lam,
+        "quantum": q_white,
         "res_sd": res_sd, "unres": unres, "lev": lev,
         "haze": haze[:, 0], "l_w": l_w, "a": a, "bb": bb, "direct": direct, "e_d": e_d,
         "slick": slick, "long_slope": slope, "foam_scale": params.foam_scale,

@@ -29,6 +29,39 @@ from .textures import SLOPE_SCALE, WaterTextures, noise_window
 from .waves import WaveState, layer_weights_at
 
 
+def add_mean_glint(img: np.ndarray, sea: dict, gain: float, plan) -> None:
+    """The glitter's expected brightness, smooth (no sparkles), added in place to the sea
+    rows ``img`` (H - sea_row0, W, 3) uint8: per coarse grid point, the mean over the glint
+    table's distribution of a pixel's clipped value ``E[min(b + q S, 1)]`` (``b`` the water's
+    luminance, ``q`` a sparkle's quantum, ``S`` the compound Poisson glint of the point's
+    expected count), added as :func:`add_glitter` adds its sparkles: the sRGB difference,
+    the same in every channel."""
+    lam = np.asarray(sea["lam"], np.float64)
+    if float(np.max(sea["glint_white"])) < GLINT_MIN:
+        return
+    gh, gw = sea["shape"]
+    base = np.clip(luminance(sea["L0"]) * gain, 0.0, 1.0)
+    mean = expected_clipped(lam, base, np.asarray(sea["quantum"], np.float64))
+    diff = (optics.srgb_encode(mean) - optics.srgb_encode(base)) * 255.0
+    up = plan.sea.upsample(to_u8(diff.reshape(gh, gw)))
+    cv2.add(img, cv2.cvtColor(up, cv2.COLOR_GRAY2RGB), dst=img)
+
+
+def expected_clipped(lam: np.ndarray, base: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``E[min(base + q S, 1)]`` per point (N,) for the compound Poisson glint ``S`` of
+    ``lam`` expected sparkles (:func:`_glint_table`: its quantiles at exceedance
+    probabilities ``10**(-6 c / 255)``; the tail beyond 1e-6 is left out)."""
+    table = _glint_table().astype(np.float64)  # (rows, 256)
+    row = np.clip(np.rint((np.log(np.maximum(lam, 1e-300)) - GLINT_LN0) / GLINT_LN_STEP), 0,
+                  table.shape[0] - 1).astype(np.int64)
+    p = 10.0 ** (-6.0 * np.arange(table.shape[1]) / (table.shape[1] - 1))
+    dp = np.append(-np.diff(p), p[-1])  # probability of each quantile's interval
+    mid = table[row]  # (N, 256) the value exceeded with probability p (rising)
+    mid = 0.5 * (mid + np.concatenate([mid[:, 1:], mid[:, -1:]], axis=1))
+    v = np.minimum(base[:, None] + q[:, None] * mid, 1.0)
+    return (v * dp[None]).sum(1)
+
+
 def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off, sky: Sky,
              waves: WaveState, fp_rows):
     """Sun glitter (Cox & Munk 1954) per pixel, added to the image in the region where it

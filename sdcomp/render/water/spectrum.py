@@ -93,21 +93,19 @@ def spreading_delta(k, wind: float, omega: float = FULLY_DEVELOPED):
 @lru_cache(maxsize=4096)
 def _band_variances(wind_q: int, omega_q: int) -> tuple[np.ndarray, np.ndarray]:
     wind, omega = wind_q / 100.0, omega_q / 100.0
-    u = np.zeros(N_BANDS + 1)
-    c = np.zeros(N_BANDS + 1)
-    for b in range(N_BANDS + 1):  # band N_BANDS: everything shorter than 1 cm
-        if b < N_BANDS:
-            lam_lo, lam_hi = BAND0 * 2.0 ** b, BAND0 * 2.0 ** (b + 1)
-        else:
-            lam_lo, lam_hi = 0.001, BAND0
-        k = np.geomspace(2 * math.pi / lam_hi, 2 * math.pi / lam_lo, 33)
-        lnk = np.log(k)
-        bk = curvature_spectrum(k, wind, omega)
-        d = spreading_delta(k, wind, omega)
-        u[b] = np.trapezoid(bk * 0.5 * (1 + 0.5 * d), lnk)
-        c[b] = np.trapezoid(bk * 0.5 * (1 - 0.5 * d), lnk)
-    # index N_BANDS holds the sub-centimetre rest: move it to the front as "band -1"
-    return np.roll(u, 1), np.roll(c, 1)
+    # rows: band -1 (everything from 1 mm to 1 cm), then bands 0 .. N_BANDS - 1; 33
+    # log-spaced wavenumbers from each band's longest to its shortest wave
+    lam_hi = np.concatenate([[BAND0], BAND0 * 2.0 ** (np.arange(N_BANDS) + 1)])
+    lam_lo = np.concatenate([[0.001], BAND0 * 2.0 ** np.arange(N_BANDS)])
+    t = np.linspace(0.0, 1.0, 33)[None, :]
+    lnk = np.log(2 * math.pi / lam_hi)[:, None] * (1 - t) + np.log(2 * math.pi / lam_lo)[
+        :, None] * t
+    k = np.exp(lnk)
+    bk = curvature_spectrum(k, wind, omega)
+    d = spreading_delta(k, wind, omega)
+    u = np.trapezoid(bk * 0.5 * (1 + 0.5 * d), lnk, axis=1)
+    c = np.trapezoid(bk * 0.5 * (1 - 0.5 * d), lnk, axis=1)
+    return u, c
 
 
 def band_slope_variance(wind: float, omega: float = FULLY_DEVELOPED

@@ -48,7 +48,7 @@ from .coarse import (
     water_light,
 )
 from .geometry import ViewPlan, view_plan
-from .glitter import add_glitter
+from .glitter import add_glitter, add_mean_glint
 from .layers import wave_layers
 from .optics import luminance
 from .shading import add_foam, shade_exact, shade_fast
@@ -185,7 +185,7 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
         out: optional (H, W, 3) uint8 array to draw into (else a new one).
         shading: ``"fast"`` (one slope direction per image; uint8 passes) or ``"exact"``
             (the full linearised response per pixel, float32: a slower reference).
-        glitter: draw the sun's sparkles (the expected glint still meters the exposure).
+        glitter: draw the sun's sparkles (False: the glint's smooth expected brightness).
 
     Returns:
         (image (H, W, 3) uint8 sRGB after auto-exposure, info dict): ``gain``, ``sea_mask``
@@ -215,6 +215,8 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
         info["glitter_box"] = add_glitter(sea_img, layers, sea, view.gain, plan, textures,
                                           view.noise_off, view.sky, waves, frame["fp"][r0:])
         tick("glitter")
+    else:
+        add_mean_glint(sea_img, sea, view.gain, plan)
     info["water_srgb"] = a_srgb.reshape(-1, 3).mean(0)
     if view.sky_terms is not None:
         draw_sky(image[:r0], view.sky_terms, view.gain, plan)

@@ -130,6 +130,14 @@ class WaterTextures:
                 tex.ensure(s, lev)
         return tex
 
+    def build_all(self) -> None:
+        """Build every level tile of every direction set now (about 1.3 s and 40 MB more):
+        a process that forks workers calls it first, so they share them instead of each
+        building the ones it meets (~25 ms each)."""
+        for s in range(len(SET_ANGLES)):
+            for lev in range(N_LEVELS):
+                self.ensure(s, lev)
+
     def _weights(self, angle_deg: float, delta: float, power: float) -> np.ndarray:
         """Mode amplitudes ``|m|**-power * sqrt(1 + delta cos 2 phi)``, phi from the wind at
         ``angle_deg`` in the tile frame."""
