@@ -161,8 +161,8 @@ def test_sparkle_density_tracks_cox_munk(water_textures, monkeypatch):
                     cloud_cover=0.0, wind=2.0, wave_age=3.0, slicks=0.0, swell_height=0.0,
                     sun_elevation=elev, sun_azimuth=az, depth=None)
         pose = CameraPose(alt, 90.0, 0.0)
-        with_g, info = surface.render_water(model, pose, p, water_textures, glitter=True)
-        without, _ = surface.render_water(model, pose, p, water_textures, glitter=False)
+        with_g, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+        without, _ = surface.render_water(model, pose, p, water_textures, glint="none")
         sparkle = (with_g.astype(int) - without).max(axis=2) > 0
         obs.append(sparkle.ravel())
         exp_.append(_expected_sparkles(model, pose, p, info).ravel())
@@ -192,6 +192,26 @@ def test_no_glitter_without_direct_sun(water_textures):
     p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="overcast",
                 cloud_cover=1.0, wind=5.0, sun_elevation=60.0, sun_azimuth=0.0)
     pose = CameraPose(30.0, 60.0, 0.0)  # facing the sun
-    a, info = surface.render_water(model, pose, p, water_textures, glitter=True)
-    b, _ = surface.render_water(model, pose, p, water_textures, glitter=False)
+    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
     assert info["glitter_box"] is None and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("lam,base,q", [(0.01, 0.1, 0.5), (0.3, 0.2, 0.3), (2.0, 0.05, 0.2),
+                                        (0.05, 0.0, 1.0)])
+def test_mean_glint_is_the_expected_clipped_glitter(lam, base, q):
+    """The smooth glint (glitter off) is E[min(b + q S, 1)] for the compound Poisson glint S:
+    Poisson(lam) sparkles of Pareto(1.5) intensities with mean 1, checked against a direct
+    Monte Carlo of that sum (within its sampling error and the table's quantisation)."""
+    rng = np.random.default_rng(7)
+    n = 400_000
+    k = rng.poisson(lam, n)
+    s = np.zeros(n)
+    xm = (1.5 - 1) / 1.5
+    for j in range(int(k.max())):
+        sel = k > j
+        s[sel] += xm * (1 - rng.random(int(sel.sum()))) ** (-1 / 1.5)
+    want = float(np.minimum(base + q * s, 1.0).mean())
+    got = float(glitter.expected_clipped(np.array([lam]), np.array([base]),
+                                         np.array([q]))[0])
+    assert got == pytest.approx(want, rel=0.03, abs=2e-4)

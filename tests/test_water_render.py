@@ -180,7 +180,7 @@ def test_exposure_lands_on_target(water_textures):
     for i in range(4):  # no glitter in view (sun behind, low), overcast or clear
         p = _params(40 + i, sun_elevation=30.0, exposure_target=0.18)
         img, info = render_water(model, CameraPose(30.0, 90.0, p.sun_azimuth + 180), p,
-                                 water_textures, glitter=False)
+                                 water_textures, glint="none")
         lin = (img / 255.0) ** 2.2
         y = (lin * [0.2126, 0.7152, 0.0722]).sum(-1).mean()
         assert 0.12 < y < 0.26
@@ -234,7 +234,7 @@ def test_custom_colour_keeps_its_hue(water_textures):
         p = replace(sample_water(np.random.default_rng(0), config), patchiness=0.0, depth=None)
         assert p.rgb == rgb
         _, info = render_water(model, CameraPose(30.0, 90.0, 0.0), p, water_textures,
-                               glitter=False)
+                               glint="none")
         assert list(np.argsort(info["water_srgb"])) == list(np.argsort(rgb))
 
 
@@ -262,8 +262,8 @@ def shaded(water_textures) -> list[dict]:
                         cloud_cover={"clear": 0.0, "broken": 0.4, "overcast": 1.0}[sky],
                         sun_elevation=50.0, sun_azimuth=80.0 * i, foam_scale=0.0, seed=i + 1)
         pose = CameraPose(25.0, pitch_deg, heading)
-        fast, info = render_water(model, pose, p, water_textures, glitter=False)
-        exact, _ = render_water(model, pose, p, water_textures, glitter=False, shading="exact")
+        fast, info = render_water(model, pose, p, water_textures, glint="none")
+        exact, _ = render_water(model, pose, p, water_textures, glint="none", shading="exact")
         ref, _ = render_reference(model, pose, p, water_textures)
         out.append({"fast": luma(fast), "exact": luma(exact), "ref": luma(ref),
                     "mask": info["sea_mask"], "rgb": (fast, ref)})
@@ -300,13 +300,6 @@ def test_fast_shading_matches_the_reference_in_strength_and_colour(shaded):
         assert np.all(np.abs(fast[m].mean(0) - ref[m].mean(0)) < 3.0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "sdcomp/render/water/shading.py shade_fast: the amplitude B = sqrt(J_u^2 + J_c^2) is "
-    "unsigned while the slope direction g from _direction (np.linalg.eigh) has an arbitrary "
-    "sign, so where the response along g (J . g) is negative the drawn wave texture is the "
-    "negative of the physical one (here 2 of 8 scenes correlate < -0.4 with the exact "
-    "reference while shading='exact' correlates > 0.6), and it disagrees with the glitter, "
-    "which uses the signed slopes"))
 def test_fast_shading_has_the_sign_of_the_reference(shaded):
     """The fast path draws the same waves as the exact shading, bright where the
     reference is bright: its high-pass correlates positively with the reference's (one
@@ -327,8 +320,8 @@ def _foam_added(water_textures, foam_scale: float, wind: float = 8.0):
                     visibility=40000.0, seed=3)
     pose = CameraPose(30.0, 20.0, 0.0)
     view = view_water(model, pose, p, water_textures)
-    a, _ = render_water(model, pose, p, water_textures, glitter=False)
-    b, _ = render_water(model, pose, replace(p, foam_scale=0.0), water_textures, glitter=False)
+    a, _ = render_water(model, pose, p, water_textures, glint="none")
+    b, _ = render_water(model, pose, replace(p, foam_scale=0.0), water_textures, glint="none")
     added = (a.astype(np.int16) - b).max(axis=2).astype(float)
     return added, view.waves.foam * foam_scale, view
 
@@ -344,12 +337,6 @@ def test_whitecaps_cover_their_fraction_of_the_drawn_sea(water_textures, wind, f
     assert 0.2 * cover < frac < 2 * cover, (frac, cover)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "sdcomp/render/water/layers.py _neutral: the flat layer used where no wave level is "
-    "drawn (rows near the horizon, level >= N_LEVELS) has codes (128, 128, 0, 128) but the "
-    "tiles' channels are (slope u, slope c, grain, foam): its foam code 128 (exceedance "
-    "~1 %) turns every such pixel into whitecap once the cover exceeds ~1 % (a white band "
-    "at the horizon); a flat surface without foam is (128, 128, 128, 0)"))
 def test_whitecaps_do_not_fill_the_undrawn_horizon_rows(water_textures):
     """Rows too far to draw waves get whitecaps as a fraction of the sea too, not as a
     solid band: their mean brightening stays within a few times W of full foam's."""

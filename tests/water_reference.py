@@ -46,7 +46,7 @@ def render_reference(model, pose, params, textures) -> tuple[np.ndarray, dict]:
     incidence angle, the sky blurred by the unresolved roughness), the water-leaving light
     transmitted through it, haze towards the horizon colour; same exposure gain."""
     view = view_water(model, pose, params, textures)
-    img, info = draw_water(view, textures, glitter=False)
+    img, info = draw_water(view, textures, glint="none")
     plan, sea, waves, frame = view.plan, view.sea, view.waves, view.frame
     grid = plan.sea
     layers = wave_layers(plan, textures, view.altitude, frame, view.world_off, frame["rows"])

@@ -43,7 +43,8 @@ class Background:
         if self.photos is not None:
             photo = self.photos.pick(scene.seeds.photo, model.width, model.height)
             return photo, photo_light(photo, view.light, scene.water.exposure_target)
-        image, _ = draw_water(view, self.textures.water, glitter=scene.glitter)
+        image, _ = draw_water(view, self.textures.water,
+                              glint="sparkles" if scene.glitter else "mean")
         if scene.shore is not None:
             add_land(image, model, pose, scene.shore, self.textures.land, view.light,
                      scene.seeds.land)

@@ -38,9 +38,9 @@ def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength:
     :data:`RING_EDGE` of the water, dry next to wet, or on the outline of a wall standing
     less than :data:`RING_WALL` out of the water), dilated by :data:`RING_WIDTH`, softened,
     broken into patches of :data:`FOAM_BUBBLES` (a smooth random field of ``seed``), scaled
-    to ``strength``, and hidden where the body stands above the water. None when no ring is drawn (no hull at the
-    water: standing clear of it or wholly under it; or the band narrower than
-    :data:`RING_MIN_PX`)."""
+    to ``strength``, and hidden where the body stands above the water. None when no ring is
+    drawn (no hull at the water: standing clear of it or wholly under it; or the band
+    narrower than :data:`RING_MIN_PX`)."""
     width = RING_WIDTH / pitch_m
     if width < RING_MIN_PX or strength <= 0:
         return None

@@ -21,10 +21,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..util.colour import LUMA as COLOUR_LUMA
 from .water import WaterLight
 from .water.optics import N_WATER, fresnel, refracted_cos
 
-LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 luminance weights
+LUMA = COLOUR_LUMA.astype(np.float32)  # Rec. 709 luminance weights, float32
 RIPPLES = 3  # sinusoids in the waterline's wave field
 BLUR_PER_METRE = 0.08  # metres of blur (Gaussian sigma) per metre of depth, calm water
 

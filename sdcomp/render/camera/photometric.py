@@ -9,13 +9,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ...util.colour import linear_to_srgb
+from ...util.colour import LUMA, linear_to_srgb
 from .lens import LEVEL_LINEAR
 from .scale import scaled_noise
 
 LOG_BLACK, LOG_K, LOG_MAX = 0.08, 35.0, 4.0
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 luma weights (R, G, B)
 
 
 TOE_EPS = 0.01  # soft_pow: power curves get a finite slope at black

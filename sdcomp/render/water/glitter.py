@@ -50,16 +50,22 @@ def add_mean_glint(img: np.ndarray, sea: dict, gain: float, plan) -> None:
 def expected_clipped(lam: np.ndarray, base: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``E[min(base + q S, 1)]`` per point (N,) for the compound Poisson glint ``S`` of
     ``lam`` expected sparkles (:func:`_glint_table`: its quantiles at exceedance
-    probabilities ``10**(-6 c / 255)``; the tail beyond 1e-6 is left out)."""
+    probabilities ``10**(-6 c / 255)``, rows interpolated in ``ln lam``; the tail beyond
+    1e-6 is left out)."""
     table = _glint_table().astype(np.float64)  # (rows, 256)
-    row = np.clip(np.rint((np.log(np.maximum(lam, 1e-300)) - GLINT_LN0) / GLINT_LN_STEP), 0,
-                  table.shape[0] - 1).astype(np.int64)
+    f = np.clip((np.log(np.maximum(lam, 1e-300)) - GLINT_LN0) / GLINT_LN_STEP, 0,
+                table.shape[0] - 1)
+    r0 = np.minimum(np.floor(f).astype(np.int64), table.shape[0] - 2)
+    w = f - r0
     p = 10.0 ** (-6.0 * np.arange(table.shape[1]) / (table.shape[1] - 1))
     dp = np.append(-np.diff(p), p[-1])  # probability of each quantile's interval
-    mid = table[row]  # (N, 256) the value exceeded with probability p (rising)
-    mid = 0.5 * (mid + np.concatenate([mid[:, 1:], mid[:, -1:]], axis=1))
-    v = np.minimum(base[:, None] + q[:, None] * mid, 1.0)
-    return (v * dp[None]).sum(1)
+
+    def mean_of(rows: np.ndarray) -> np.ndarray:
+        x = table[rows]  # (N, 256) the value exceeded with probability p (rising)
+        mid = 0.5 * (x + np.concatenate([x[:, 1:], x[:, -1:]], axis=1))
+        return (np.minimum(base[:, None] + q[:, None] * mid, 1.0) * dp[None]).sum(1)
+
+    return mean_of(r0) * (1 - w) + mean_of(r0 + 1) * w
 
 
 def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off, sky: Sky,

@@ -15,9 +15,10 @@ from .waves import level_continuous
 
 def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -> dict:
     """The per-pixel wave layers of the sea rows (see LAYERS): ``a4`` (H - sea_row0, W, 4)
-    uint8 codes (upwind, crosswind, foam, -) of level ``l`` at full resolution, ``b4`` of
-    level ``l + 2`` at 1/4 and ``c4`` of level ``l + 4`` at 1/16 of the resolution (their
-    samples at the centres of 4 x 4 and 16 x 16 blocks), with the level of their rows
+    uint8 codes (upwind slope, crosswind slope, grain, foam) of level ``l`` at full
+    resolution, ``b4`` of level ``l + 2`` at 1/4 and ``c4`` of level ``l + 4`` at 1/16 of
+    the resolution (their samples at the centres of 4 x 4 and 16 x 16 blocks), with the
+    level of their rows
     (``levels_a`` ...). Straight down: crops of the tiles, one texel per sample. Oblique:
     the tiles sampled through the camera, rows along tile rows; rows near a level change
     cross-fade the two levels."""
@@ -138,10 +139,11 @@ _NEUTRAL: dict = {}
 
 
 def _neutral(width: int) -> np.ndarray:
-    """(1, width, 4) uint8 codes of a flat surface without foam."""
+    """(1, width, 4) uint8 codes of a flat surface without grain or foam (channels: slope
+    u, slope c, grain, foam)."""
     row = _NEUTRAL.get(width)
     if row is None:
-        row = _NEUTRAL[width] = np.tile(np.array([128, 128, 0, 128], np.uint8), (1, width, 1))
+        row = _NEUTRAL[width] = np.tile(np.array([128, 128, 128, 0], np.uint8), (1, width, 1))
     return row
 
 

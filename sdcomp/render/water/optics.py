@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...util.colour import linear_to_srgb, luminance, srgb_to_linear
+
 N_WATER = 1.333
 
 # Band-averaged IOPs of the camera's R, G, B channels (effective ~600, ~540, ~465 nm).
@@ -126,24 +128,15 @@ def beam_attenuation(a, bb):
 
 # --------------------------------------------------------------------------- sRGB
 
-def srgb_encode(lin):
-    """Linear [0, 1] to sRGB [0, 1] (clipped), float32."""
-    c = np.clip(np.asarray(lin, np.float32), 0.0, 1.0)
-    return np.where(c <= 0.0031308, c * 12.92,
-                    1.055 * np.power(c, np.float32(1 / 2.4)) - 0.055).astype(np.float32)
+def srgb_encode(lin) -> np.ndarray:
+    """Linear [0, 1] to sRGB [0, 1] (clipped), float32
+    (:func:`sdcomp.util.colour.linear_to_srgb`)."""
+    return linear_to_srgb(np.asarray(lin, np.float32))
 
 
-def srgb_decode(s):
-    """sRGB [0, 1] to linear [0, 1], float32."""
-    c = np.asarray(s, np.float32)
-    return np.where(c <= 0.04045, c / 12.92,
-                    np.power((c + 0.055) / 1.055, np.float32(2.4))).astype(np.float32)
-
-
-def luminance(rgb):
-    """Rec. 709 luminance of linear RGB (..., 3)."""
-    rgb = np.asarray(rgb)
-    return rgb[..., 0] * 0.2126 + rgb[..., 1] * 0.7152 + rgb[..., 2] * 0.0722
+def srgb_decode(s) -> np.ndarray:
+    """sRGB [0, 1] to linear [0, 1], float32 (:func:`sdcomp.util.colour.srgb_to_linear`)."""
+    return srgb_to_linear(np.asarray(s, np.float32))
 
 
 def swatch(a, bb, grey: float = 0.18) -> tuple[int, int, int]:

@@ -17,7 +17,9 @@ from .waves import WaveState, layer_weights_at
 
 
 def _direction(resp: dict) -> np.ndarray:
-    """The image's slope direction (2,): the principal axis of the luminance response."""
+    """The image's slope direction (2,): the principal axis of the luminance response, signed
+    so that the mean response along it is positive (the drawn amplitude ``B`` is a
+    magnitude: with the axis's other sign the waves would be drawn inverted)."""
     ju = luminance(resp["u"]).ravel()
     jc = luminance(resp["c"]).ravel()
     m = np.array([[ju @ ju, ju @ jc], [ju @ jc, jc @ jc]])
@@ -25,6 +27,8 @@ def _direction(resp: dict) -> np.ndarray:
         return np.array([1.0, 0.0])
     _, vecs = np.linalg.eigh(m)
     g = vecs[:, -1]
+    if float(np.mean(ju * g[0] + jc * g[1])) < 0:
+        g = -g
     return g / np.linalg.norm(g)
 
 

@@ -57,6 +57,9 @@ from .textures import N_LEVELS, SET_ANGLES, WaterTextures, pitch
 from .waves import WaveState, level_continuous, wave_state
 
 SHADINGS = ("fast", "exact")
+#: how the sun's glint is drawn: sparkles (compound Poisson per pixel), its smooth mean, or
+#: not at all (for comparisons with a glint-free reference)
+GLINTS = ("sparkles", "mean", "none")
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +179,7 @@ def _exposure(plan: ViewPlan, sea: dict, sky_terms: dict | None, params: WaterPa
 
 
 def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None = None,
-               shading: str = "fast", glitter: bool = True) -> tuple[np.ndarray, dict]:
+               shading: str = "fast", glint: str = "sparkles") -> tuple[np.ndarray, dict]:
     """The pixels of ``view`` (step 2 of the module docstring).
 
     Args:
@@ -185,7 +188,8 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
         out: optional (H, W, 3) uint8 array to draw into (else a new one).
         shading: ``"fast"`` (one slope direction per image; uint8 passes) or ``"exact"``
             (the full linearised response per pixel, float32: a slower reference).
-        glitter: draw the sun's sparkles (False: the glint's smooth expected brightness).
+        glint: ``"sparkles"`` (the sun's glitter), ``"mean"`` (its smooth expected
+            brightness: cheaper) or ``"none"``.
 
     Returns:
         (image (H, W, 3) uint8 sRGB after auto-exposure, info dict): ``gain``, ``sea_mask``
@@ -195,6 +199,8 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
     """
     if shading not in SHADINGS:
         raise ValueError(f"shading {shading!r}: use one of {', '.join(SHADINGS)}")
+    if glint not in GLINTS:
+        raise ValueError(f"glint {glint!r}: use one of {', '.join(GLINTS)}")
     plan, sea, waves, frame = view.plan, view.sea, view.waves, view.frame
     w, h = plan.width, plan.height
     image = out if out is not None else np.empty((h, w, 3), np.uint8)
@@ -211,11 +217,11 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
     if waves.foam * view.params.foam_scale > 1e-4:
         add_foam(sea_img, layers["a4"], sea, waves, view.gain, a_srgb)
         tick("foam")
-    if glitter:
+    if glint == "sparkles":
         info["glitter_box"] = add_glitter(sea_img, layers, sea, view.gain, plan, textures,
                                           view.noise_off, view.sky, waves, frame["fp"][r0:])
         tick("glitter")
-    else:
+    elif glint == "mean":
         add_mean_glint(sea_img, sea, view.gain, plan)
     info["water_srgb"] = a_srgb.reshape(-1, 3).mean(0)
     if view.sky_terms is not None:
@@ -232,10 +238,10 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
 
 def render_water(model: CameraModel, pose: CameraPose, params: WaterParams,
                  textures: WaterTextures, out: np.ndarray | None = None,
-                 shading: str = "fast", glitter: bool = True) -> tuple[np.ndarray, dict]:
+                 shading: str = "fast", glint: str = "sparkles") -> tuple[np.ndarray, dict]:
     """The sea and sky of one image: :func:`view_water` then :func:`draw_water` (see them
     for the arguments and the info dict). ``model``: pixels and focal lengths; ``pose``:
     altitude (m), pitch (degrees, 15..90), heading (degrees)."""
     tick()
     return draw_water(view_water(model, pose, params, textures), textures, out, shading,
-                      glitter)
+                      glint)
