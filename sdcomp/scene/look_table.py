@@ -107,7 +107,7 @@ PARAMS: dict[str, LookParam] = {
                      "keeps the renderer's nominal exposure (gain (target/mean)^strength)",
                      {"*": R(0.3, 1.0)}),
     "ae_target": P("float", "linear", 0.18, "auto exposure target: mean linear luminance",
-                   {"*": R(0.07, 0.25, "log")}),
+                   {"*": R(0.10, 0.32, "log")}),
     "exposure_ev": P("float", "stops", 0.0,
                      "exposure bias on top of auto exposure (compensation, metering error)",
                      {"*": R(-1.3, 1.3, "tri", mode=0.0)}),
@@ -135,7 +135,7 @@ PARAMS: dict[str, LookParam] = {
     "black_lift": P("float", "", 0.0, "encoded black level lift b: b + (1 - b) V (haze, flat)",
                     {"*": R(0.0, 0.06, p_off=0.6)}),
     "saturation": P("float", "", 1.0, "saturation about Rec.709 luma of the encoded values",
-                    {"*": R(0.55, 1.5, "tri", mode=1.1)}),
+                    {"*": R(0.55, 1.35, "tri", mode=1.0)}),
     # ---- sensor noise (native scale, linear units of the output signal)
     "noise_a": P("float", "linear", 0.0,
                  "shot noise: variance a x of a linear signal x (about 1 / full-well e- "

@@ -9,14 +9,16 @@ every dataset.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
+from .look import CameraLook
 from .look_table import sample_look
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
-from .water import WaterParams, constituents, parse_water
+from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
 EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
@@ -56,12 +58,33 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur)
+    water, look = expose(water, look)
     scale = max(model.width, model.height) / 416.0
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
     quality = int(config.jpeg_quality.sample(rng))
     seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
     return Scene(index, model, pose, water, placements, shore, hills, look, defocus, quality,
                  seeds, config.shadows, config.glitter)
+
+
+def expose(water: WaterParams, look: CameraLook) -> tuple[WaterParams, CameraLook]:
+    """One exposure per image, made where the light is: the camera's auto exposure (its
+    target luminance and bias) becomes the renderer's exposure target, and the camera
+    stage applies no gain of its own (``ae_strength`` and ``exposure_ev`` 0). Sun sparkles
+    then clip against the exposure the image really has, as on a sensor, instead of being
+    clipped at the renderer's and scaled after. A clean look keeps the water's own target."""
+    if look.preset == "clean":
+        return water, look
+    target = min(max(look.ae_target * 2.0 ** look.exposure_ev, 0.02), 0.6)
+    return (replace(water, exposure_target=target),
+            replace(look, ae_strength=0.0, exposure_ev=0.0))
+
+
+def _pick(rng: np.random.Generator, kinds: tuple[str, ...], weights: dict[str, float]) -> str:
+    """One of ``kinds``, drawn with ``weights`` (renormalised over them)."""
+    w = np.array([weights[k] for k in kinds], np.float64)
+    return kinds[min(int(np.searchsorted(np.cumsum(w / w.sum()), rng.random(), "right")),
+                     len(kinds) - 1)]
 
 
 def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
@@ -89,7 +112,7 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterPara
     slicks = float(rng.uniform(0.05, 0.5)) if rng.random() < 0.4 and wind < 6.0 else 0.0
     swell = float(rng.uniform(0.3, 2.0)) if rng.random() < 0.6 else 0.0
     swell_length, swell_dir = _log_uniform(rng, 40.0, 200.0), rng.uniform(0, 360)
-    sky = config.sky[int(rng.integers(len(config.sky)))]
+    sky = _pick(rng, config.sky, SKY_WEIGHTS)
     cover = {"clear": 0.0, "overcast": 1.0}.get(sky, config.cloud_cover.sample(rng))
     return WaterParams(
         name=name, water_type=wtype, chl=chl, cdom=cdom, tsm=tsm, rgb=rgb,

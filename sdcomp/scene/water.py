@@ -40,6 +40,9 @@ WATER_PRESETS: dict[str, tuple[str, ...]] = {
 }
 WATER_NAMES = (*WATER_TYPES, *WATER_PRESETS)
 SKY_KINDS = ("clear", "broken", "overcast")
+#: how often each sky is drawn: drones fly mostly in fair weather (SeaDronesSee's footage is
+#: sunny or partly cloudy)
+SKY_WEIGHTS = {"clear": 0.4, "broken": 0.45, "overcast": 0.15}
 SAND = (0.32, 0.28, 0.20)  # bottom albedo of pale sand
 
 

@@ -107,7 +107,11 @@ def photometric_tables(gain: float, wb: np.ndarray, knee: float, flat: float,
     (the pipeline does not need it). With ``noise`` = (a, b, sx, sy) the table also carries
     ``sigma``: :func:`noise_sigma` with the secant slope over x +- sigma, the curve there
     interpolated from the 256 levels (dense enough: its x spacing at black, 3e-4, is below
-    the read noise; this runs per image, so one evaluation of the curve serves all)."""
+    the read noise; this runs per image, so one evaluation of the curve serves all).
+
+    Level 255 is the renderer's clip: a radiance at least its full scale, mostly far above
+    it (the sun's sparkles); like a sensor's saturated pixel it stays white (255, no noise)
+    whatever the exposure and white balance."""
     x = LEVEL_LINEAR[:, None] * (gain * np.asarray(wb, np.float64))[None, :]
     pts = [x]
     if with_slope:
@@ -115,6 +119,7 @@ def photometric_tables(gain: float, wb: np.ndarray, knee: float, flat: float,
         pts += [x + h, np.maximum(x - h, 0.0)]
     v = 255.0 * tone_curve(np.stack(pts), knee, flat, contrast, gamma, black)
     levels = v[0]
+    levels[255] = 255.0
     slope = (v[1] - v[2]) / (pts[1] - pts[2]) if with_slope else None
     lut = np.clip(np.rint(levels), 0, 255).astype(np.uint8).reshape(256, 1, 3)
     sigma = None
@@ -128,6 +133,7 @@ def photometric_tables(gain: float, wb: np.ndarray, knee: float, flat: float,
             sigma[:, c] = s * (np.interp(hi, xc, levels[:, c]) - np.interp(lo, xc, levels[:, c])
                                ) / np.maximum(hi - lo, 1e-12)
         sigma = scaled_noise(sigma, sx, sy)
+        sigma[255] = 0.0
     return Photometric(x, levels, slope, lut, sigma)
 
 

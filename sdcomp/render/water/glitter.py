@@ -208,6 +208,9 @@ def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off
     b8 = cv2.convertScaleAbs(cv2.sqrt(np.ascontiguousarray(m4[..., 3])), alpha=255.0)
     cv2.LUT(b8, _sqrt_srgb_lut(), dst=b8)
     d8 = cv2.subtract(g8, b8)
+    # a saturated sparkle saturates every channel (white light added to the water's colour
+    # past the sensor's full scale), not only the luminance
+    cv2.max(d8, np.where(g8 > 254, np.uint8(255), np.uint8(0)), dst=d8)
     d3 = cv2.cvtColor(d8, cv2.COLOR_GRAY2RGB)
     region = img[y0:y1, x0:x1]
     cv2.add(region, d3, dst=region)
