@@ -182,8 +182,8 @@ def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:
     dropped, kept = counts["objects_dropped"], counts["annotations"]
     if dropped == 0 or dropped < kept:
         return None
-    share = "none" if kept == 0 else f"only {kept} of {kept + dropped}"
-    return (f"warning: {share} of the objects placed could be annotated: the others had "
+    share = "none" if kept == 0 else f"only {kept}"
+    return (f"{share} of the {kept + dropped} objects placed could be annotated: the others had "
             f"fewer than --min-visible-px {config.min_visible_px} visible pixels at --altitude "
             f"{config.altitude.to_json()} and {config.width}x{config.height} px; lower "
             f"--altitude, raise --size, or lower --min-visible-px")
