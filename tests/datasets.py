@@ -219,6 +219,12 @@ def _check_annotations(coco: COCO, iid: int, im: dict, mask_path: Path) -> None:
                              int(ys.max() - ys.min() + 1)]
 
 
+def by_name(folder: Path) -> list[Path]:
+    """The files under ``folder`` and its split sub-folders (no hidden ones), sorted by
+    file name (the image index)."""
+    return sorted((p for p in folder.rglob("[!.]*") if p.is_file()), key=lambda p: p.name)
+
+
 def image_path(root: Path, index: int, ext: str = "jpg") -> Path:
     """The file of image ``index`` in the dataset ``root``, whichever split it is in."""
     found = [p for s in ("train", "val") if (p := root / "images" / s / f"{index:06d}.{ext}")
