@@ -16,8 +16,8 @@ from .masks import (
     label_map,
     measure,
 )
-from .records import coco_annotations, image_meta, object_annotations
+from .records import camera_record, coco_annotations, image_meta, object_annotations
 
 __all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "amodal_masks",
            "instance_map", "label_map", "measure",
-           "object_annotations", "coco_annotations", "image_meta"]
+           "object_annotations", "coco_annotations", "image_meta", "camera_record"]

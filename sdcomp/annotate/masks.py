@@ -53,6 +53,7 @@ class Instance:
     bbox: tuple[int, int, int, int]  # x, y, w, h pixels
     amodal: np.ndarray | None = None  # (H, W) bool, only when asked for
     amodal_area: int = 0
+    silhouette_area: int = 0  # pixels of the unoccluded in-frame silhouette (visibility)
 
 
 @dataclass
@@ -143,6 +144,8 @@ def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
             continue
         relabel[k + 1] = len(out) + 1
         inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox)
+        inst.silhouette_area = (int(np.count_nonzero(amodal[k])) if amodal is not None else
+                                int(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)))
         if amodal is not None:
             inst.amodal = amodal[k]
             inst.amodal_area = int(amodal[k].sum())
