@@ -250,7 +250,7 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
     off = view.jac @ np.array([-sw[0] / sun_h * drift, -sw[1] / sun_h * drift,
                                -z / N_WATER])
     strength = share * from_water * size_m / (size_m + spread)
-    blur = min(max(spread * model.fx / view.depth, 0.0), 30.0)
+    blur = max(spread * model.fx / view.depth, 0.0)
     return (float(off[0]), float(off[1])), float(strength), blur
 
 
