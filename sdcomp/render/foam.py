@@ -2,10 +2,9 @@
 
 Small waves break against a floating hull and the water it rocks in froths: from the air a
 floating object is ringed by a thin, broken band of foam a few tens of centimetres wide, whiter
-in wind. The band is drawn on the water (it is not the object: it is never annotated), over
-the object's submerged parts and hidden by the parts above the water; its coverage takes its
-share of the object's mask weight where it lies over the object
-(:func:`sdcomp.render.composite.over`).
+in wind. The band is drawn on the water (it is not the object: it is never annotated),
+composited under every object, so the objects' coverage hides it (at a hull's edge pixels the
+foam fills the water's part only) and the masks are unchanged.
 """
 
 from __future__ import annotations
@@ -38,9 +37,8 @@ def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength:
     :data:`RING_EDGE` of the water, dry next to wet, or on the outline of a wall standing
     less than :data:`RING_WALL` out of the water), dilated by :data:`RING_WIDTH`, softened,
     broken into patches of :data:`FOAM_BUBBLES` (a smooth random field of ``seed``), scaled
-    to ``strength``, and hidden where the body stands above the water. None when no ring is
-    drawn (no hull at the water: standing clear of it or wholly under it; or the band
-    narrower than :data:`RING_MIN_PX`)."""
+    to ``strength``. None when no ring is drawn (no hull at the water: standing clear of it
+    or wholly under it; or the band narrower than :data:`RING_MIN_PX`)."""
     width = RING_WIDTH / pitch_m
     if width < RING_MIN_PX or strength <= 0:
         return None
@@ -68,7 +66,5 @@ def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength:
                        np.float32)
     field /= np.float32(max(float(field.std()), 1e-6))
     patches = np.clip(0.35 + 0.8 * field, 0.0, 1.0)
-    above = cv2.copyMakeBorder(np.where(dry, alpha, 0.0).astype(np.float32),
-                               pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
-    cover = ring * patches * (1.0 - above) * np.float32(strength)
+    cover = ring * patches * np.float32(strength)
     return pad, np.minimum(cover, 1.0).astype(np.float32)

@@ -293,7 +293,8 @@ def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
                pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
                ) -> Layer | None:
     """The contact foam around placement ``i``'s waterline (:func:`contact_foam`) as a
-    :class:`Layer` of role WATER just in front of the object, lit like the water's surface;
+    :class:`Layer` of role WATER, drawn under every object (:func:`build_layers`: the
+    objects' coverage hides it and the masks are unchanged), lit like the water's surface;
     None when there is none."""
     ring = contact_foam(alpha, depth, pitch_m, ring_strength(scene.water.wind),
                         (scene.water.seed, i))
@@ -317,14 +318,14 @@ def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     coverage = warped[..., 3:5]
     np.minimum(coverage, 1.0, out=coverage)
-    return Layer(i, Role.WATER, 0, view.depth - 1e-3, roi, warped[..., :3], warped[..., 3],
+    return Layer(i, Role.WATER, 0, view.depth, roi, warped[..., :3], warped[..., 3],
                  warped[..., 4], (0.0, 0.0), 0.0, 0.0)
 
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource]
                  ) -> list[Layer]:
-    """The layers of every placement in the frame, far to near; ``sprites`` maps asset
-    keys to their sprites."""
+    """The layers of every placement in the frame: the foam rings (role WATER) first, then
+    the objects far to near; ``sprites`` maps asset keys to their sprites."""
     seen = []
     for i, pl in enumerate(scene.placements):
         src = sprites[pl.asset]
@@ -339,5 +340,6 @@ def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource
                             slope_sd(scene.water.wind))
     layers = [lay for (i, pl, src, view), column in zip(seen, columns, strict=True)
               for lay in make_layers(i, pl, src, view, scene, lit, column)]
-    layers.sort(key=lambda lay: -lay.depth)  # far first
+    # the foam lies on the water, under every object (it never changes a mask); then far first
+    layers.sort(key=lambda lay: (lay.role is not Role.WATER, -lay.depth))
     return layers
