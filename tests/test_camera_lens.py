@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from sdcomp.render.camera import lens as L
+from sdcomp.render.camera import remap as R
 from sdcomp.util.colour import srgb_to_linear
 
 from .conftest import squares
@@ -76,7 +77,7 @@ def test_remap_puts_points_where_the_model_says(w, h):
         img = np.zeros((h, w, 3), np.uint8)
         blob = np.exp(-((xx - src[0]) ** 2 + (yy - src[1]) ** 2) / (2 * 2.0**2))
         img[..., 1] = np.rint(250 * blob)
-        out = L.remap_image(img, lens)[..., 1].astype(float)
+        out = R.remap_image(img, lens)[..., 1].astype(float)
         cy, cx = (out * yy).sum() / out.sum(), (out * xx).sum() / out.sum()
         want = lens.forward(src)
         assert np.hypot(cx - want[0], cy - want[1]) < 0.1
@@ -97,7 +98,7 @@ def test_lateral_ca_scales_red_and_blue():
     img = np.zeros((h, w, 3), np.uint8)
     yy, xx = np.mgrid[0:h, 0:w]
     img[:] = np.rint(250 * np.exp(-((xx - src[0]) ** 2 + (yy - src[1]) ** 2) / 8.0))[..., None]
-    out = L.remap_image(img, lens).astype(float)
+    out = R.remap_image(img, lens).astype(float)
     g = lens.forward(src)
     c = np.array([(w - 1) / 2, (h - 1) / 2])
     for ch, ca in ((0, ca_r), (2, ca_b), (1, 0.0)):
@@ -113,7 +114,7 @@ def test_instance_map_follows_with_area_zoom_squared():
     boxes = [(150, 150, 24), (220, 190, 30), (180, 240, 16), (240, 150, 20)]
     ins = squares(h, w, boxes)
     lens = L.lens_maps(w, h, f, f, k1, k2)
-    out = L.remap_labels(ins, lens)
+    out = R.remap_labels(ins, lens)
     assert out.dtype == np.uint16
     assert set(np.unique(out)) == set(np.unique(ins))
     for k, (_, _, s) in enumerate(boxes):
@@ -130,8 +131,8 @@ def test_windowed_label_remap_is_exact():
             boxes = [(int(rng.integers(0, w - 30)), int(rng.integers(0, h - 30)),
                       int(rng.integers(1, 30))) for _ in range(int(rng.integers(0, 12)))]
             ins = squares(h, w, boxes)
-            assert np.array_equal(L.remap_labels(ins, lens, window=True),
-                                  L.remap_labels(ins, lens, window=False))
+            assert np.array_equal(R.remap_labels(ins, lens, window=True),
+                                  R.remap_labels(ins, lens, window=False))
 
 
 def test_amodal_bit_planes_match_one_by_one():
@@ -140,9 +141,9 @@ def test_amodal_bit_planes_match_one_by_one():
     rng = np.random.default_rng(1)
     masks = rng.random((37, h, w)) < 0.02
     masks = np.stack([cv2.dilate(m.astype(np.uint8), np.ones((5, 5))) > 0 for m in masks])
-    got = L.remap_masks(masks, lens)
+    got = R.remap_masks(masks, lens)
     for k in range(len(masks)):
-        want = L.remap_labels(masks[k].astype(np.uint8), lens, window=False) > 0
+        want = R.remap_labels(masks[k].astype(np.uint8), lens, window=False) > 0
         assert np.array_equal(got[k], want)
 
 
@@ -155,9 +156,8 @@ def test_vignetting_is_one_at_centre_and_cos4_at_the_edge():
     # strength s: 1 - s (1 - cos^4)
     assert abs(L.vignette_gain(lens.field_r2, 0.3)[200, 400] - (1 - 0.3 * (1 - g[200, 400]))
                ) < 1e-6
-    m = L.vignette_map(lens, 0.5)
     img = np.full((401, 401, 3), 200, np.uint8)
-    out = L.apply_vignette(img, m)
+    out = R.vignette(img, lens, 0.5)
     lin = srgb_to_linear(out[0, 0, 1] / 255) / srgb_to_linear(200 / 255)
     want = L.vignette_gain(lens.field_r2[:1, :1], 0.5)[0, 0]
     assert abs(lin - want) < 0.02  # the 2.2-power approximation of sRGB
@@ -176,3 +176,30 @@ def test_grid_interpolated_maps_match_the_model(k1, k2):
     ex, ey = L._source(xs.astype(float), ys.astype(float), w, h, f, f, k1, k2, lens.zoom, 0.0)
     err = np.hypot(mx[ys, xs] - np.clip(ex, 0, w - 1), my[ys, xs] - np.clip(ey, 0, h - 1))
     assert err.max() < 0.025
+
+
+@pytest.mark.parametrize("ca", [(0.0, 0.0), (4e-4, -4e-4)])
+def test_streamed_lens_gives_the_cached_maps_pixels(monkeypatch, ca):
+    """Frames over STREAM_PIXELS build their maps band by band from the lens grid: the
+    image, labels (windowed and whole) and vignetting come out byte for byte as with the
+    full cached maps, and the streamed lens keeps no full-frame array."""
+    w, h = 1000, 700
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    lab = np.zeros((h, w), np.uint16)
+    lab[h // 3:h // 2, w // 5:w // 2] = 3
+    lab[5:60, 900:990] = 7
+    got = {}
+    for name, limit in (("full", 1 << 40), ("streamed", 0)):
+        monkeypatch.setattr(L, "STREAM_PIXELS", limit)
+        L._MAP_CACHE.clear()
+        lens = L.lens_maps(w, h, 0.8 * w, 0.8 * w, -0.04, 0.01, *ca)
+        assert lens.streamed == (name == "streamed")
+        got[name] = (R.remap_image(img, lens), R.remap_labels(lab, lens),
+                     R.remap_labels(lab, lens, window=False), R.vignette(img, lens, 0.4))
+    L._MAP_CACHE.clear()
+    assert lens.maps is None and lens.nearest is None and lens.field_r2 is None
+    assert lens.nbytes < w * h  # the grid only
+    for a, b in zip(got["full"], got["streamed"], strict=True):
+        assert np.array_equal(a, b)
+    assert not np.array_equal(got["full"][0], img)  # the lens did move the pixels

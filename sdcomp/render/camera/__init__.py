@@ -5,7 +5,8 @@ JPEG (:func:`~sdcomp.render.camera.pipeline.apply_camera`), each parameter drawn
 (:class:`~sdcomp.scene.look.CameraLook`).
 
 - :mod:`~sdcomp.render.camera.pipeline`: the stages in order, the scale rule;
-- :mod:`~sdcomp.render.camera.lens`: distortion and vignetting maps, label remapping;
+- :mod:`~sdcomp.render.camera.lens`: the lens geometry (distortion, zoom, vignetting);
+- :mod:`~sdcomp.render.camera.remap`: images, labels and masks through it, vignetting;
 - :mod:`~sdcomp.render.camera.photometric`: metering, white balance, tone curve tables;
 - :mod:`~sdcomp.render.camera.sensor`: noise, Bayer mosaic and demosaicing, softness;
 - :mod:`~sdcomp.render.camera.scale`: native-pixel effects reduced to the output scale;

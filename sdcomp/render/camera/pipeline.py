@@ -47,7 +47,7 @@ import numpy as np
 from ...scene.look import CameraLook
 from ..effects import blur
 from .codec import block_compress, unsharp
-from .lens import apply_vignette, lens_maps, remap_image, remap_labels, remap_masks, vignette_map
+from .lens import lens_maps
 from .photometric import (
     Photometric,
     apply_colour,
@@ -59,6 +59,7 @@ from .photometric import (
     thumbnail,
     white_balance_gains,
 )
+from .remap import remap_image, remap_labels, remap_masks, vignette
 from .scale import scaled_blur, scaled_sharpen
 from .sensor import DEMOSAIC_SIGMA, apply_lut_noise, demosaic, noise_window, sigma_present, soften
 
@@ -211,7 +212,7 @@ def _lens(out: np.ndarray, instances: np.ndarray, amodal: np.ndarray | None, run
         run.info["dist"] = [look.k1, look.k2, 0.0, 0.0, 0.0]
         run.ran.append("lens")
     if "vignetting" in on and look.vignetting > 0:
-        out = apply_vignette(out, vignette_map(lens, look.vignetting))
+        out = vignette(out, lens, look.vignetting)
         run.ran.append("vignetting")
     run.clock("vignetting")
     return out, instances, amodal
