@@ -179,8 +179,9 @@ def test_contact_foam_rings_the_waterline():
 # --------------------------------------------------------------------------- frames
 
 def test_foam_never_changes_the_masks(gen):
-    """The foam ring lies behind its object: compositing with or without the foam layers
-    gives the same object weights, so the same masks."""
+    """The foam rings are drawn on the background under every object: building the layers
+    with or without them gives the same object weights (so the same masks), and the
+    background changes only where a ring lies."""
     from sdcomp.render.composite import composite
     from sdcomp.render.layers import build_layers
     from sdcomp.render.lighting import lighting
@@ -188,17 +189,17 @@ def test_foam_never_changes_the_masks(gen):
     s = _scene(gen, [_rov(), _rov(x=0.6, y=0.4, draft=0.15)], _water("coastal", 0.3, wind=7.0))
     light = _light(gen, s.water)
     sprites = gen.compositor.assets.sprites
-    with_foam = build_layers(s, lighting(s, light), sprites)
-    assert any(lay.role is Role.WATER for lay in with_foam)
-    without = [lay for lay in build_layers(s, lighting(s, light), sprites)
-               if lay.role is not Role.WATER]
-    canvas = np.zeros((gen.model.height, gen.model.width, 3), np.uint8)
-    composite(canvas.copy(), with_foam, False)
-    composite(canvas.copy(), without, False)
-    a = [lay.weight for lay in with_foam if lay.role is Role.OBJECT]
-    b = [lay.weight for lay in without]
-    assert len(a) == len(b) == 2
-    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    base = np.full((gen.model.height, gen.model.width, 3), 60, np.uint8)
+    foamed = base.copy()
+    with_foam = build_layers(s, lighting(s, light), sprites, foam_onto=foamed)
+    without = build_layers(s, lighting(s, light), sprites)
+    assert np.count_nonzero((foamed > base).any(axis=2)) > 50  # white foam on dark water
+    composite(foamed, with_foam, False)
+    composite(base.copy(), without, False)
+    assert len(with_foam) == len(without) == 2
+    for a, b in zip(with_foam, without, strict=True):
+        assert a.colour.size == 0 and b.colour.size == 0  # released once drawn
+        assert np.array_equal(a.weight, b.weight) and np.array_equal(a.alpha, b.alpha)
 
 
 def _scene(g: Generator, placements, water: WaterParams, pitch: float = 90.0):

@@ -11,57 +11,68 @@ import numpy as np
 from .layers import Layer
 
 SHADOW_BLUR_WORK = 8.0  # pixels: wider shadow blurs are made on a reduced copy
+BAND_PIXELS = 1 << 18  # layers are blended in bands of rows of about this many pixels
+NO_COLOUR = np.zeros((0, 0, 3), np.float32)  # a drawn layer's colour, released
 
 
 def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     """Darken the background under ``layer``'s shadow (in place): the shadow takes
     ``shadow_strength`` of the linear light, so sRGB levels keep ``(1 - s a)**(1 / 2.2)``
     (``a`` the shadow's blurred coverage, quantised to 256 steps: one table look-up and one
-    multiply per pixel). Wide blurs are made on a reduced copy (sigma at most
-    :data:`SHADOW_BLUR_WORK` pixels there) and magnified back."""
+    multiply per pixel). Wide blurs are made on a copy reduced by an integer factor (sigma
+    at most :data:`SHADOW_BLUR_WORK` pixels there) and magnified back band by band of
+    :data:`BAND_PIXELS` over the frame's part only (no full-size copy of a shadow wider
+    than the frame)."""
     if layer.shadow_strength <= 0.01:
         return
     x0, y0, x1, y1 = layer.roi
     h, w = image.shape[:2]
     sigma = layer.shadow_blur
-    pad = int(math.ceil(2 * sigma)) + 1
-    a8 = cv2.copyMakeBorder(cv2.convertScaleAbs(layer.alpha, alpha=255.0), pad, pad, pad,
-                            pad, cv2.BORDER_CONSTANT, value=0)
+    f = max(1, int(sigma // SHADOW_BLUR_WORK))
+    pad = -(-(int(math.ceil(2 * sigma)) + 1) // f) * f  # a multiple of f
+    a8 = cv2.convertScaleAbs(layer.alpha, alpha=255.0)
+    if f > 1:
+        a8 = cv2.resize(a8, (-(-a8.shape[1] // f), -(-a8.shape[0] // f)),
+                        interpolation=cv2.INTER_AREA)
+    a8 = cv2.copyMakeBorder(a8, pad // f, pad // f, pad // f, pad // f,
+                            cv2.BORDER_CONSTANT, value=0)
     if sigma > 0.3:
-        a8 = _blur_u8(a8, sigma)
+        a8 = cv2.GaussianBlur(a8, (0, 0), sigma / f)
     ox, oy = layer.shadow_offset
-    sx, sy = int(round(x0 - pad + ox)), int(round(y0 - pad + oy))
+    sx, sy = int(round(x0 - pad + ox)), int(round(y0 - pad + oy))  # the map's corner
     ax0, ay0 = max(sx, 0), max(sy, 0)
-    ax1, ay1 = min(sx + a8.shape[1], w), min(sy + a8.shape[0], h)
+    ax1, ay1 = min(sx + a8.shape[1] * f, w), min(sy + a8.shape[0] * f, h)
     if ax1 <= ax0 or ay1 <= ay0:
         return
-    sub = np.ascontiguousarray(a8[ay0 - sy:ay1 - sy, ax0 - sx:ax1 - sx])
     table = np.clip(np.rint(255.0 * (1.0 - layer.shadow_strength * np.arange(256) / 255.0)
                             ** (1 / 2.2)), 0, 255).astype(np.uint8)
-    keep = cv2.LUT(sub, table)
-    region = image[ay0:ay1, ax0:ax1]
-    cv2.multiply(region, cv2.merge([keep, keep, keep]), dst=region, scale=1.0 / 255.0)
-
-
-def _blur_u8(a8: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian blur of a uint8 (h, w) map by ``sigma`` pixels, on a copy reduced by an
-    integer factor when ``sigma`` exceeds :data:`SHADOW_BLUR_WORK` (smooth: nothing is
-    lost)."""
-    f = max(1, int(sigma // SHADOW_BLUR_WORK))
-    if f == 1:
-        return cv2.GaussianBlur(a8, (0, 0), sigma)
-    h, w = a8.shape
-    small = cv2.resize(a8, (max(1, w // f), max(1, h // f)), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), sigma / f)
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    rows = max(1, BAND_PIXELS // (ax1 - ax0))
+    for a in range(ay0, ay1, rows):
+        b = min(a + rows, ay1)
+        if f == 1:
+            sub = a8[a - sy:b - sy, ax0 - sx:ax1 - sx]
+        else:  # frame pixel p samples the reduced map at (p - corner + 0.5) / f - 0.5
+            m = np.array([[1.0 / f, 0.0, (ax0 - sx + 0.5) / f - 0.5],
+                          [0.0, 1.0 / f, (a - sy + 0.5) / f - 0.5]])
+            sub = cv2.warpAffine(a8, m, (ax1 - ax0, b - a),
+                                 flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                                 borderMode=cv2.BORDER_REPLICATE)
+        keep = cv2.LUT(np.ascontiguousarray(sub), table)
+        region = image[a:b, ax0:ax1]
+        cv2.multiply(region, cv2.merge([keep, keep, keep]), dst=region, scale=1.0 / 255.0)
 
 
 def over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:
-    """Composite ``layer`` over ``image`` and reduce the weights of the layers it covers."""
+    """Composite ``layer`` over ``image`` (band by band of rows of :data:`BAND_PIXELS`: no
+    float copy of a large region) and reduce the weights of the layers it covers."""
     x0, y0, x1, y1 = layer.roi
-    region = image[y0:y1, x0:x1]
-    out = region.astype(np.float32) * (1.0 - layer.alpha)[..., None] + layer.colour
-    region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+    rows = max(1, BAND_PIXELS // max(x1 - x0, 1))
+    for a in range(0, y1 - y0, rows):
+        b = min(a + rows, y1 - y0)
+        region = image[y0 + a:y0 + b, x0:x1]
+        out = region.astype(np.float32) * (1.0 - layer.alpha[a:b])[..., None]
+        out += layer.colour[a:b]
+        region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
     for other in below:
         ox0, oy0, ox1, oy1 = other.roi
         ix0, iy0, ix1, iy1 = max(x0, ox0), max(y0, oy0), min(x1, ox1), min(y1, oy1)
@@ -73,9 +84,11 @@ def over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:
 
 def composite(image: np.ndarray, layers: list[Layer], shadows: bool) -> None:
     """Draw ``layers`` (far to near) onto the uint8 (H, W, 3) ``image`` in place, their
-    shadows first when ``shadows``."""
+    shadows first when ``shadows``. Each layer's ``colour`` is released once drawn (set to
+    :data:`NO_COLOUR`): the masks need only coverage and weights."""
     if shadows:
         for layer in layers:
             cast_shadow(image, layer)
     for k, layer in enumerate(layers):
         over(image, layer, layers[:k])
+        layer.colour = NO_COLOUR  # drawn: only its coverage and weight are used from here

@@ -99,7 +99,7 @@ class Compositor:
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
         lit = lighting(scene, light)
-        layers = build_layers(scene, lit, self.assets.sprites)
+        layers = build_layers(scene, lit, self.assets.sprites, foam_onto=image)
         composite(image, layers, scene.shadows)
         image = blur(image, None, scene.defocus_blur)
         return Rendered(image, layers, light)

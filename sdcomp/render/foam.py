@@ -2,14 +2,15 @@
 
 Small waves break against a floating hull and the water it rocks in froths: from the air a
 floating object is ringed by a thin, broken band of foam a few tens of centimetres wide, whiter
-in wind. The band is drawn on the water (it is not the object: it is never annotated),
-composited under every object, so the objects' coverage hides it (at a hull's edge pixels the
-foam fills the water's part only) and the masks are unchanged.
+in wind. The band is drawn on the water (it is not the object: it is never annotated) before
+the objects and their shadows, so the objects' coverage hides it (at a hull's edge pixels the
+foam fills the water's part only), shadows darken it, and the masks are unchanged.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -20,6 +21,40 @@ RING_WALL = 0.5  # metres: an outline this close above the water is a wall into 
 RING_MIN_PX = 0.7  # sprite pixels: narrower bands are not drawn
 FOAM_ALBEDO = 0.6  # of fresh foam (diffuse)
 FOAM_BUBBLES = 0.05  # metres: the size of the foam's patches
+BAND_PIXELS = 1 << 18  # rings are warped and blended in bands of rows of this many pixels
+
+
+@dataclass(frozen=True)
+class FoamRing:
+    """One object's contact foam, ready to draw: ``cover`` (h, w) float32 coverage in the
+    sprite's pixels, ``affine`` (2, 3) float64 from them to the frame window ``roi`` = (x0,
+    y0, x1, y1), ``colour`` the lit foam's sRGB levels (0..255, 3 floats); ``depth`` metres
+    (the rings are drawn far first)."""
+
+    depth: float
+    cover: np.ndarray
+    affine: np.ndarray
+    roi: tuple[int, int, int, int]
+    colour: tuple[float, ...]
+
+
+def draw_ring(image: np.ndarray, ring: FoamRing) -> None:
+    """Composite ``ring`` over the uint8 (H, W, 3) ``image`` in place: ``image (1 - c) +
+    colour c`` with ``c`` the coverage warped into the frame (bilinear), band by band of
+    rows (:data:`BAND_PIXELS`): no frame-sized temporary."""
+    x0, y0, x1, y1 = ring.roi
+    rows = max(1, BAND_PIXELS // max(x1 - x0, 1))
+    colour = np.array(ring.colour, np.float32)
+    for a in range(y0, y1, rows):
+        b = min(a + rows, y1)
+        shift = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, float(a - y0)]])
+        c = cv2.warpAffine(ring.cover, ring.affine - shift, (x1 - x0, b - a),
+                           flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                           borderValue=0)
+        np.clip(c, 0.0, 1.0, out=c)
+        region = image[a:b, x0:x1]
+        out = region.astype(np.float32) * (1.0 - c)[..., None] + c[..., None] * colour
+        region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
 
 def ring_strength(wind: float) -> float:

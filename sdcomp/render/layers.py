@@ -22,7 +22,7 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel, local_projection
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
-from .foam import FOAM_ALBEDO, contact_foam, ring_strength
+from .foam import FOAM_ALBEDO, FoamRing, contact_foam, draw_ring, ring_strength
 from .lighting import Lighting, irradiance_terms, lambert
 from .submerge import (
     BLUR_PER_METRE,
@@ -255,10 +255,10 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
 
 
 def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scene: Scene,
-                lit: Lighting, column: WaterColumn) -> list[Layer]:
+                lit: Lighting, column: WaterColumn) -> tuple[Layer, FoamRing | None]:
     """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`, seen as ``view``
     (:func:`sprite_view`) through the water ``column``, and the foam ring around its
-    waterline when it has one (:func:`foam_layer`)."""
+    waterline when it has one (:func:`foam_ring`)."""
     model = scene.model
     prepared = src.prepared(view.pose, view.level)
     height = prepared[3]
@@ -285,17 +285,14 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
     layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
                   warped[..., 3], warped[..., 4], offset, strength, blur, full)
-    foam = foam_layer(i, view, prepared[0], depth, pitch_m, scene, lit, column)
-    return [layer] if foam is None else [layer, foam]
+    return layer, foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column)
 
 
-def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
-               pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
-               ) -> Layer | None:
-    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`) as a
-    :class:`Layer` of role WATER, drawn under every object (:func:`build_layers`: the
-    objects' coverage hides it and the masks are unchanged), lit like the water's surface;
-    None when there is none."""
+def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
+              pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
+              ) -> FoamRing | None:
+    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`), lit
+    like the water's surface, placed in the frame; None when there is none."""
     ring = contact_foam(alpha, depth, pitch_m, ring_strength(scene.water.wind),
                         (scene.water.seed, i))
     if ring is None:
@@ -309,23 +306,16 @@ def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
     e = column.sun * max(float(lit.sun[2]), 0.0) + water.sky_irradiance
     lin = np.clip(e * (FOAM_ALBEDO / math.pi * water.gain), 0.0, 1.0)
     srgb = linear_to_srgb(lin.astype(np.float32)) * np.float32(255.0)
-    stack = np.empty(cover.shape + (5,), np.float32)
-    stack[..., :3] = cover[..., None] * srgb
-    stack[..., 3] = cover
-    stack[..., 4] = cover
-    x0, y0, x1, y1 = roi
-    warped = cv2.warpAffine(stack, affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
-                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    coverage = warped[..., 3:5]
-    np.minimum(coverage, 1.0, out=coverage)
-    return Layer(i, Role.WATER, 0, view.depth, roi, warped[..., :3], warped[..., 3],
-                 warped[..., 4], (0.0, 0.0), 0.0, 0.0)
+    return FoamRing(view.depth, cover, affine, roi, tuple(float(v) for v in srgb))
 
 
-def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource]
-                 ) -> list[Layer]:
-    """The layers of every placement in the frame: the foam rings (role WATER) first, then
-    the objects far to near; ``sprites`` maps asset keys to their sprites."""
+def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource],
+                 foam_onto: np.ndarray | None = None) -> list[Layer]:
+    """The layers of every placement in the frame, far to near; ``sprites`` maps asset
+    keys to their sprites. The foam rings are drawn on ``foam_onto`` (the uint8 (H, W, 3)
+    background, in place) as they are made, far first: under every object, so they never
+    change a mask, and never held (a ring round a large object in a huge frame is
+    gigabytes of layer); none without ``foam_onto``."""
     seen = []
     for i, pl in enumerate(scene.placements):
         src = sprites[pl.asset]
@@ -338,8 +328,12 @@ def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource
     columns = water_columns(lit.water, np.array([view.towards_camera for *_, view in seen]),
                             np.array([lw for _, lw in local]), np.array([s for s, _ in local]),
                             slope_sd(scene.water.wind))
-    layers = [lay for (i, pl, src, view), column in zip(seen, columns, strict=True)
-              for lay in make_layers(i, pl, src, view, scene, lit, column)]
-    # the foam lies on the water, under every object (it never changes a mask); then far first
-    layers.sort(key=lambda lay: (lay.role is not Role.WATER, -lay.depth))
+    made = [make_layers(i, pl, src, view, scene, lit, column)
+            for (i, pl, src, view), column in zip(seen, columns, strict=True)]
+    if foam_onto is not None:
+        rings = sorted((ring for _, ring in made if ring is not None), key=lambda r: -r.depth)
+        for ring in rings:
+            draw_ring(foam_onto, ring)
+    layers = [layer for layer, _ in made]
+    layers.sort(key=lambda lay: -lay.depth)  # far first
     return layers

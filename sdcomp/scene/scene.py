@@ -27,7 +27,6 @@ class Role(enum.Enum):
 
     OBJECT = "object"  # an object of interest: annotated
     CLUTTER = "clutter"  # a distractor: never annotated
-    WATER = "water"  # what an object does to the water (foam): drawn, never annotated
 
 
 @dataclass(frozen=True)

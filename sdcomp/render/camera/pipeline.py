@@ -90,7 +90,8 @@ def apply_camera(image: np.ndarray, instances: np.ndarray, look: CameraLook,
     Args:
         image: (H, W, 3) uint8 sRGB from the renderer (scene radiance through the sRGB
             curve at the nominal exposure); not modified, except huge frames (see the
-            module docstring), which are changed in place.
+            module docstring), which are changed in place and returned with ``instances``
+            itself (their geometry is the pinhole's: no copy of gigabytes).
         instances: (H, W) uint16 instance ids (0 = background); not modified.
         look: the image's :class:`CameraLook` (``out_width`` x ``out_height`` must be W x H).
         noise_tile: (nh, nw, 3) uint8 ``128 + 32 N(0, 1)`` tile
@@ -114,7 +115,7 @@ def apply_camera(image: np.ndarray, instances: np.ndarray, look: CameraLook,
     run = _Run.start(image, instances, look, enabled, timings)
     if max(image.shape[:2]) > HUGE_SIDE:
         out = _huge(image, run, noise_tile)
-        return out, instances.copy(), None if amodal is None else np.array(amodal, bool), \
+        return out, instances, None if amodal is None else np.asarray(amodal, bool), \
             run.info
     out = _motion(image, run)
     out, instances, amodal = _lens(out, instances, amodal, run)
