@@ -34,6 +34,24 @@ def test_preset_diagonal_fov_and_gsd_match_the_pinhole_formula(name):
         assert gy == pytest.approx(gx, rel=1e-12)  # square sensor pixels
 
 
+@pytest.mark.parametrize("photo", ["mavic2pro", "phantom4pro", "zenmuse-x5"])
+def test_video_presets_are_16_9_with_the_photo_horizontal_fov(photo):
+    """``NAME-video`` is DJI's 4K video of the camera: 3840 x 2160 made from the full sensor
+    width, so the photo's horizontal field of view and a narrower diagonal one; its look is
+    the camera's."""
+    from sdcomp.scene.config import GeneratorConfig
+
+    still = CameraModel.preset(photo, *PRESETS[photo][:2])
+    video = CameraModel.preset(f"{photo}-video", 1920, 1080)
+    assert PRESETS[f"{photo}-video"][:2] == (3840, 2160)
+    assert video.width / video.height == 16 / 9
+    assert video.horizontal_fov == pytest.approx(still.horizontal_fov, abs=0.01)
+    assert video.diagonal_fov < still.diagonal_fov
+    assert video.fx == pytest.approx(video.fy, rel=1e-12)  # square pixels at 16:9 output
+    config = GeneratorConfig(camera=f"{photo}-video", width=640, height=360)
+    assert config.look_preset == photo
+
+
 def test_mavic_object_size_at_10_m_matches_a_real_photo():
     """A 0.46 m BlueROV2 at 10 m under a Mavic 2 Pro spans 0.46 / GSD pixels (within 2 %)."""
     cam = CameraModel.preset("mavic2pro", width=5472, height=3648)

@@ -28,10 +28,30 @@ from ..errors import UserError
 ALTITUDE_RANGE = (1.0, 1000.0)
 #: gimbal pitch below the horizon, degrees: 15 (low) to 90 (straight down)
 PITCH_RANGE = (15.0, 90.0)
-#: name: (sensor width px, sensor height px, diagonal field of view degrees)
-PRESETS: dict[str, tuple[int, int, float]] = {
+#: the photo frames of the drone cameras: (sensor width px, sensor height px, diagonal field
+#: of view degrees)
+PHOTO_PRESETS: dict[str, tuple[int, int, float]] = {
     "mavic2pro": (5472, 3648, 77.0),
     "phantom4pro": (5472, 3648, 84.0),
+    "zenmuse-x5": (4608, 3456, 72.0),
+}
+
+
+def video_frame(sensor_width: int, sensor_height: int, diagonal_fov: float,
+                video: tuple[int, int] = (3840, 2160)) -> tuple[int, int, float]:
+    """The 16:9 video frame of a photo frame (sensor px, diagonal FOV degrees): the full
+    sensor width cropped to 16:9 and resized to ``video`` (DJI's 4K recording), so the same
+    horizontal field of view and a narrower diagonal one."""
+    f = math.hypot(sensor_width, sensor_height) / 2 / math.tan(math.radians(diagonal_fov) / 2)
+    half_diag = math.hypot(sensor_width, sensor_width * video[1] / video[0]) / 2
+    return video[0], video[1], round(2 * math.degrees(math.atan(half_diag / f)), 2)
+
+
+#: name: (sensor width px, sensor height px, diagonal field of view degrees); ``NAME-video``
+#: is the camera's 16:9 4K video (SeaDronesSee's and most drone footage)
+PRESETS: dict[str, tuple[int, int, float]] = {
+    **PHOTO_PRESETS,
+    **{f"{k}-video": video_frame(*v) for k, v in PHOTO_PRESETS.items()},
 }
 
 

@@ -96,7 +96,9 @@ class GeneratorConfig:
                              "instead of boxes")
     # camera
     camera: str = setting("mavic2pro", "custom", "drone camera: mavic2pro (77 deg diagonal "
-                          "FOV), phantom4pro (84 deg), or custom with --fov and --sensor-px",
+                          "FOV), phantom4pro (84 deg), zenmuse-x5 (72 deg), their 16:9 4K "
+                          "video (NAME-video, e.g. mavic2pro-video with --width 1920 --height "
+                          "1080), or custom with --fov and --sensor-px",
                           "NAME")
     fov: float | None = setting(None, "custom", "diagonal field of view, degrees (overrides "
                                 "the camera's)", "DEG")
@@ -266,7 +268,8 @@ class GeneratorConfig:
         custom camera)."""
         if self.look != "auto":
             return self.look
-        return self.camera if self.camera in LOOK_PRESETS else "mavic2pro"
+        body = self.camera.removesuffix("-video")
+        return body if body in LOOK_PRESETS else "mavic2pro"
 
     @property
     def categories(self) -> list[dict]:
