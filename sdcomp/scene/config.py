@@ -106,8 +106,12 @@ class GeneratorConfig:
                                  "water)", "M", 0.5, 200.0, "m")
     whitecaps: float = setting(1.0, "float", "whitecap amount at a given wind (0 = none)", "X",
                                0.0, 5.0)
-    backgrounds: str | None = setting(None, "custom", "composite onto your own empty-water "
-                                      "photos in DIR instead of procedural water", "DIR")
+    backgrounds: str | None = setting(None, "custom", "composite onto your own footage "
+                                      "instead of procedural water: a folder (or file) of "
+                                      "photos and drone videos", "PATH")
+    background_labels: str | None = setting(None, "custom", "COCO json or YOLO labels folder "
+                                            "of real objects in the --backgrounds frames: "
+                                            "kept out of every image", "LABELS")
     # light
     sun_elevation: Param = setting("25-80", "param", "sun elevation above the horizon, degrees",
                                    "DEG", 5.0, 90.0, "degrees")
@@ -181,7 +185,7 @@ class GeneratorConfig:
         self.camera_model()  # validates the combination
 
     def _check_water(self) -> None:
-        """Water colours and the user's photo folder."""
+        """Water colours and the user's footage (and its labels)."""
         water = names(self.water, "water")
         if not water:
             raise SettingError("water", "{name} needs at least one colour: "
@@ -190,8 +194,17 @@ class GeneratorConfig:
         if self.backgrounds is not None:
             if not isinstance(self.backgrounds, (str, Path)) or "\0" in str(self.backgrounds):
                 raise SettingError("backgrounds", f"{{name}} {self.backgrounds!r} must be a "
-                                                  f"folder path")
+                                                  f"folder or file path")
             self._put("backgrounds", str(self.backgrounds))
+        if self.background_labels is not None:
+            if self.backgrounds is None:
+                raise SettingError("background_labels", "{name} labels objects in the "
+                                                        "--backgrounds footage: give that too")
+            if not isinstance(self.background_labels, (str, Path)) or "\0" in str(
+                    self.background_labels):
+                raise SettingError("background_labels", f"{{name}} "
+                                   f"{self.background_labels!r} must be a file or folder path")
+            self._put("background_labels", str(self.background_labels))
 
     def _check_objects(self) -> None:
         """Objects of interest (each its own category) and the clutter kinds."""
