@@ -228,6 +228,7 @@ class FrameLabels:
     categories: np.ndarray
     size: tuple[int, int] | None = None
     file_name: str = ""
+    meta: dict = field(default_factory=dict)  # the COCO image's "meta" (altitude, pitch...)
 
     def pixels(self, width: int, height: int) -> np.ndarray:
         """(k, 4) float64 x, y, w, h in the pixels of a ``width`` x ``height`` frame (boxes
@@ -239,11 +240,15 @@ class FrameLabels:
 
 @dataclass
 class Labels:
-    """Labelled frames by key (see the module docstring) and category names by id."""
+    """Labelled frames by key (see the module docstring), category names by id, the file or
+    folder they were read from and its ``kind``: "coco" (a frame it does not list is
+    unlabelled: its objects are unknown) or "yolo" (a frame without a label file has none).
+    """
 
     frames: dict[str, FrameLabels] = field(default_factory=dict)
     categories: dict[int, str] = field(default_factory=dict)
     source: str = ""
+    kind: str = "coco"
 
     def of(self, key: str) -> FrameLabels | None:
         return self.frames.get(key)
@@ -297,7 +302,9 @@ def _coco_labels(path: Path, what: str) -> Labels:
             else None
         name = im["file_name"]
         key = Path(name.replace("\\", "/")).stem
-        out.frames[key] = FrameLabels(rows[:, :4], rows[:, 4].astype(np.int64), size, name)
+        meta: dict = im["meta"] if isinstance(im.get("meta"), dict) else {}
+        out.frames[key] = FrameLabels(rows[:, :4], rows[:, 4].astype(np.int64), size, name,
+                                      meta)
     return out
 
 
@@ -309,7 +316,7 @@ def _yolo_labels(folder: Path, what: str) -> Labels:
         files = sorted(f for f in folder.glob("*.txt") if f.name != "classes.txt")
     if not files:
         raise UserError(f"{what} {folder}: no YOLO label files (<frame>.txt) in it")
-    out = Labels(categories=yolo_names(folder), source=str(folder))
+    out = Labels(categories=yolo_names(folder), source=str(folder), kind="yolo")
     for f in files:
         rows = []
         try:
