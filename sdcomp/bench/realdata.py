@@ -31,7 +31,8 @@ class TrainData:
     """Generated training data: ``names`` (K,) class names (class k + 1 = ``names[k]``),
     ``items`` (path, boxes (n, 4) float32 x0, y0, x1, y1 px, labels (n,) int64 classes) per
     training image, ``val`` a COCO dict of the val split (class ids as category ids, each
-    image with its ``path``), ``key`` 12 hex digits identifying the data, and the folders."""
+    image with its ``path``, ``area`` the box's, as for the real frames, which have no
+    masks), ``key`` 12 hex digits identifying the data, and the folders."""
 
     folders: list[Path]
     names: list[str]
@@ -80,7 +81,7 @@ def training_data(folders: list[str | Path]) -> TrainData:
                     val["annotations"].append({
                         "id": len(val["annotations"]) + 1, "image_id": image_id,
                         "category_id": cls[a["category_id"]], "bbox": [x, y, w, h],
-                        "area": float(a.get("area", w * h)), "iscrowd": 0})
+                        "area": float(w * h), "iscrowd": 0})  # box area, as the real
                 continue
             boxes = np.asarray([[a["bbox"][0], a["bbox"][1], a["bbox"][0] + a["bbox"][2],
                                  a["bbox"][1] + a["bbox"][3]] for a in anns],

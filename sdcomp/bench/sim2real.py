@@ -142,18 +142,30 @@ def _unlabelled(spec: Sim2RealSpec, real: RealSet) -> list:
 
 
 def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
-    """Median object sizes (sqrt of the box area, pixels) of the scored categories, and a
-    note when they differ by more than :data:`SIZE_RATIO`."""
+    """Object sizes (sqrt of the box area, pixels) of the scored categories: the medians, the
+    generated 2nd-98th percentile range and the fraction of real objects inside it, and a
+    note when the medians differ by more than :data:`SIZE_RATIO` or a quarter of the real
+    objects lie outside that range."""
     gen = data.box_sides(set(mapping))
     rl = real.box_sides(set(mapping.values()))
-    g = float(np.median(gen)) if gen.size else None
-    r = float(np.median(rl)) if rl.size else None
-    note = ""
-    if g and r and max(g / r, r / g) > SIZE_RATIO:
-        note = (f"the objects are {r:.0f} px (median) in the real frames but {g:.0f} px in the "
-                f"generated ones: the detector is scored on sizes it was not trained on; "
-                f"generate at the real frames' altitude, camera and image size")
-    return {"generated_median_px": g, "real_median_px": r, "note": note}
+    if not gen.size or not rl.size:
+        return {"generated_median_px": None, "real_median_px": None, "note": ""}
+    g, r = float(np.median(gen)), float(np.median(rl))
+    lo, hi = (float(v) for v in np.percentile(gen, [2, 98]))
+    inside = float(np.mean((rl >= lo) & (rl <= hi)))
+    notes = []
+    if max(g / r, r / g) > SIZE_RATIO:
+        notes.append(f"the objects are {r:.0f} px (median) in the real frames but {g:.0f} px "
+                     f"in the generated ones")
+    if inside < 0.75:
+        notes.append(f"{100 * (1 - inside):.0f} % of the real objects are outside the "
+                     f"generated sizes ({lo:.0f}-{hi:.0f} px)")
+    note = "; ".join(notes)
+    if note:
+        note += (": the detector is scored on sizes it was not trained on; generate at the "
+                 "real frames' altitude, camera and image size")
+    return {"generated_median_px": g, "real_median_px": r, "generated_range_px": [lo, hi],
+            "real_inside_range": inside, "note": note}
 
 
 def _detections(model, arrays: list[np.ndarray], device: str) -> list:

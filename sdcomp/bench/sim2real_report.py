@@ -83,8 +83,11 @@ def render_markdown(r: dict) -> str:
              f"{mapping}.", "", f"**Verdict: {r['verdict']['text']}.**", ""]
     s = r["sizes"]
     if s["generated_median_px"] and s["real_median_px"]:
-        lines += [f"Object size (median sqrt of the box area): {s['real_median_px']:.1f} px "
-                  f"real, {s['generated_median_px']:.1f} px generated."]
+        lo, hi = s["generated_range_px"]
+        lines += [f"Object size (sqrt of the box area): median {s['real_median_px']:.1f} px "
+                  f"real, {s['generated_median_px']:.1f} px generated; "
+                  f"{100 * s['real_inside_range']:.0f} % of the real objects within the "
+                  f"generated 2-98 % range ({lo:.1f}-{hi:.1f} px)."]
     if s["note"]:
         lines += ["", f"Warning: {s['note']}."]
     lines += ["", "COCO AP (IoU 0.50:0.95), AP50 and AR100 (x 100) by object size (box area: "
