@@ -40,6 +40,7 @@ from .footage import (
     check_photo,
     list_sources,
     read_labels,
+    read_photo,
     read_source,
 )
 
@@ -80,6 +81,8 @@ class Backgrounds:
         self._videos = VideoReader("--backgrounds")
         self._cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self._cached_bytes = 0
+        if self.sources[0].frame is None:  # a broken first photo fails before any writing
+            read_photo(self.sources[0].path)  # (videos decoded their first frame already)
 
     @property
     def files(self) -> list[Path]:
