@@ -139,7 +139,7 @@ def test_bench_huge_frame(benchmark, sprites_dir, tmp_path):
     coco = json.loads((out / "annotations" / "instances_train.json").read_text())
     assert coco["images"][0]["width"] == coco["images"][0]["height"] == HUGE
     assert coco["annotations"], "the frame should show objects at 10 m"
-    assert (out / "images" / "000000.jpg").stat().st_size > 0
-    assert (out / "masks" / "000000.png").stat().st_size > 0
+    assert (out / "images" / coco["images"][0]["file_name"]).stat().st_size > 0
+    assert (out / "masks" / coco["images"][0]["mask_file"]).stat().st_size > 0
     assert peak <= HUGE_LIMITS["peak_mib"]
     assert secs <= HUGE_LIMITS["seconds"]

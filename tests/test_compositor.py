@@ -459,7 +459,8 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
         assert key in meta, key
     assert meta["height_above_takeoff(meter)"] == round(sc.camera.altitude, 4)
     assert meta["gimbal_pitch(degrees)"] == round(sc.camera.pitch, 4)
-    assert meta["gimbal_heading(degrees)"] == round(sc.camera.heading, 4)
+    # DJI's convention: clockwise from north (+y), -180 to 180
+    assert meta["gimbal_heading(degrees)"] == round((90 - sc.camera.heading + 180) % 360 - 180, 4)
     assert meta["gsd(m/px)"] == pytest.approx(sc.camera.altitude / rov.model.fx, abs=1e-6)
     assert meta["turbidity"] == round(sc.turbidity, 4)
     assert meta["water_color"] in ("brown", "blue", "green")

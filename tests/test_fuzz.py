@@ -261,12 +261,12 @@ def check_run(mapping: dict, sprites: Path, photos: Path | None = None) -> None:
         _event("valid dataset")
         assert counts["images"] == config.n
         assert check_intact(out) == config.n  # masks, boxes and areas agree
-        for p in (out / "images").iterdir():
+        for p in (out / "images").glob("*/*"):
             img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             assert img.shape == (config.height, config.width, 3)
         assert counts["objects_dropped"] >= 0 and counts["annotations"] >= 0
         mask_ids = 0
-        for p in (out / "masks").iterdir():
+        for p in (out / "masks").glob("*/*"):
             m = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             mask_ids += len(np.unique(m[m > 0]))
         assert mask_ids == counts["annotations"]

@@ -7,7 +7,7 @@ objects, and their COCO-style records.
 """
 
 from .masks import MASK_THRESHOLD, AnnotationRule, Frame, Instance, instance_map
-from .records import coco_annotations, image_meta, object_annotations
+from .records import camera_record, coco_annotations, image_meta, object_annotations
 
 __all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "instance_map",
-           "object_annotations", "coco_annotations", "image_meta"]
+           "object_annotations", "coco_annotations", "image_meta", "camera_record"]

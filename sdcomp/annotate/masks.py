@@ -48,6 +48,7 @@ class Instance:
     bbox: tuple[int, int, int, int]  # x, y, w, h pixels
     amodal: np.ndarray | None = None  # (H, W) bool, only when asked for
     amodal_area: int = 0
+    silhouette_area: int = 0  # pixels of the unoccluded in-frame silhouette (visibility)
 
 
 @dataclass
@@ -98,6 +99,7 @@ def instance_map(scene: Scene, layers: list[Layer], rule: AnnotationRule
         bbox = (x0 + int(xs.min()), y0 + int(ys.min()), int(xs.max() - xs.min()) + 1,
                 int(ys.max() - ys.min()) + 1)
         inst = Instance(next_id, lay.placement, lay.category_id, area, bbox)
+        inst.silhouette_area = int(np.count_nonzero(lay.alpha >= MASK_THRESHOLD))
         if rule.amodal:
             full = np.zeros_like(instances, dtype=bool)
             full[y0:y1, x0:x1] = lay.alpha >= MASK_THRESHOLD

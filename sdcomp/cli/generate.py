@@ -23,7 +23,7 @@ from ..run.shards import parse_shard
 from ..scene.config import PRESETS, GeneratorConfig, ObjectSpec, load_toml, preset
 from ..scene.settings import setting_of
 from ..util.log import add_verbosity_flags, setup_logging
-from . import prog
+from . import Parser, prog
 
 
 class _ObjectAction(argparse.Action):
@@ -43,7 +43,7 @@ class _ObjectAction(argparse.Action):
 def build_parser() -> argparse.ArgumentParser:
     """The generator's parser: how to run (:func:`_add_run_options`), then a flag per
     config field (:func:`_add_dataset_options`)."""
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=prog("generate"),
         description="Generate a synthetic drone-over-water detection dataset: images, "
                     "16-bit instance masks, COCO train/val annotations.",
@@ -170,7 +170,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     log.info(f"wrote {counts['images']} images ({counts['train']} train, {counts['val']} "
              f"val), {counts['annotations']} annotations, {counts['objects_dropped']} objects "
              f"too hidden to annotate, to {options.out} in {secs:.1f} s")
+    warning = dropped_warning(counts, config)
+    if warning:
+        log.warning(warning)
     return 0
+
+
+def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:
+    """A warning when no object, or under half of those placed, could be annotated (fewer
+    than --min-visible-px visible pixels: too far, too small an image, or hidden)."""
+    dropped, kept = counts["objects_dropped"], counts["annotations"]
+    if dropped == 0 or dropped < kept:
+        return None
+    share = "none" if kept == 0 else f"only {kept}"
+    return (f"{share} of the {kept + dropped} objects placed could be annotated: the others had "
+            f"fewer than --min-visible-px {config.min_visible_px} visible pixels at --altitude "
+            f"{config.altitude.to_json()} and {config.width}x{config.height} px; lower "
+            f"--altitude, raise --size, or lower --min-visible-px")
 
 
 if __name__ == "__main__":

@@ -227,12 +227,7 @@ def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> b
     # metadata histograms
     for ax, (_, label, unit) in zip((axes[0, 2], axes[1, 0], axes[1, 1]), META_HISTOGRAMS,
                                     strict=True):
-        h = stats["meta"][label]
-        if h["n"]:
-            ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
-        ax.set_title(label)
-        ax.set_xlabel(f"{label}, {unit}")
-        ax.set_ylabel("images")
+        _plot_meta(ax, stats["meta"][label], label, unit)
     _plot_water(axes[1, 2], stats)
     fig.tight_layout()
     buf = io.BytesIO()
@@ -241,6 +236,23 @@ def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> b
     if path is not None:
         atomic_write_bytes(path, data)
     return data
+
+
+def _plot_meta(ax, h: dict, label: str, unit: str) -> None:
+    """The histogram ``h`` of one metadata value over the images; a value that is the same
+    in every image is said in words instead (a histogram of it is one bar at a meaningless
+    place)."""
+    ax.set_title(label)
+    if h["n"] and h["min"] == h["max"]:
+        ax.text(0.5, 0.5, f"constant:\n{h['min']:g} {unit}\n(all {h['n']} images)",
+                ha="center", va="center", fontsize=14, transform=ax.transAxes)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        return
+    if h["n"]:
+        ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
+    ax.set_xlabel(f"{label}, {unit}")
+    ax.set_ylabel("images")
 
 
 def _plot_counts(ax, stats: dict) -> None:

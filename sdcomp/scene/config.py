@@ -168,6 +168,9 @@ class GeneratorConfig:
     def _check_camera(self) -> None:
         """Output formats and the camera: presets, custom FOV and sensor."""
         self._put("format", _label_formats(self.format))
+        if self.yolo_seg and "yolo" not in self.format:
+            raise SettingError("yolo_seg", "{name} writes YOLO polygon labels: add --format "
+                                           "yolo (or coco,yolo), or drop {name}")
         if self.image_format not in IMAGE_FORMATS:
             raise SettingError("image_format", f"{{name}} {self.image_format!r} is unknown; "
                                                f"use {' or '.join(IMAGE_FORMATS)}")
