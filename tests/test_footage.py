@@ -12,12 +12,8 @@ import pytest
 
 from sdcomp.errors import UserError
 from sdcomp.render import photos
-from sdcomp.render.footage import (
-    VideoReader,
-    list_sources,
-    read_labels,
-    yolo_names,
-)
+from sdcomp.render.footage import VideoReader, list_sources
+from sdcomp.render.footage_labels import read_labels, yolo_names
 from sdcomp.render.photos import Backgrounds
 
 from .datasets import cli, generate
@@ -76,7 +72,7 @@ def _green(img: np.ndarray) -> int:
 
 
 def _read(folder: Path) -> list[np.ndarray]:
-    return [cv2.imread(str(p))[..., ::-1] for p in sorted((folder / "images").glob("*.jpg"))]
+    return [cv2.imread(str(p))[..., ::-1] for p in sorted((folder / "images").rglob("*.jpg"))]
 
 
 def test_video_frames_seek_to_the_frame_sequential_decoding_gives(footage):
@@ -123,8 +119,9 @@ def test_labelled_objects_never_reach_the_images(footage, tmp_path, sprites_dir)
     assert rc == 0, err
     images = _read(one)
     assert len(images) == 24 and all(_green(im) == 0 for im in images)
-    assert all((one / "images" / n).read_bytes() == (two / "images" / n).read_bytes()
-               for n in sorted(p.name for p in (one / "images").iterdir()))
+    names = sorted(p.relative_to(one) for p in (one / "images").rglob("*.jpg"))
+    assert len(names) == 24
+    assert all((one / n).read_bytes() == (two / n).read_bytes() for n in names)
     cfg = json.loads((one / "dataset.json").read_text())["config"]
     assert cfg["background_labels"] == str(footage["coco"])
 

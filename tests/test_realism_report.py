@@ -95,7 +95,7 @@ def test_real_frames_with_coco_meta_give_gsd_sky_and_boxes(tmp_path):
 
 
 def test_real_video_frames_are_sampled(tmp_path, gen_grey):
-    images = sorted((gen_grey / "images").glob("*.jpg"))
+    images = sorted((gen_grey / "images").rglob("*.jpg"))
     out = cv2.VideoWriter(str(tmp_path / "flight.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 25,
                           (192, 192))
     for p in images:

@@ -23,7 +23,8 @@ import numpy as np
 
 from ..errors import UserError
 from ..io.layout import load_dataset
-from ..render.footage import Source, list_sources, read_labels
+from ..render.footage import Source, list_sources
+from ..render.footage_labels import read_labels
 
 
 @dataclass

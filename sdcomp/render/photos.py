@@ -34,15 +34,14 @@ from ..errors import UserError
 from .footage import (
     IMAGE_EXTENSIONS,
     MAX_PIXELS,
-    Labels,
     Source,
     VideoReader,
     check_photo,
     list_sources,
-    read_labels,
     read_photo,
     read_source,
 )
+from .footage_labels import Labels, read_labels
 
 EXTENSIONS = IMAGE_EXTENSIONS  # kept for code that imported it from here
 __all__ = ["EXTENSIONS", "MAX_PIXELS", "Backgrounds", "check_photo"]

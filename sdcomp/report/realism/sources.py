@@ -22,7 +22,8 @@ import numpy as np
 
 from ...errors import UserError
 from ...io.layout import load_dataset
-from ...render.footage import Labels, Source, VideoReader, list_sources, read_labels, read_source
+from ...render.footage import Source, VideoReader, list_sources, read_source
+from ...render.footage_labels import Labels, read_labels
 from ...scene.camera import CameraModel, horizon_row
 from .sea import ALTITUDE_KEY, GSD_KEY, PITCH_KEY, SeaOracle, num
 
@@ -147,10 +148,10 @@ def load_generated(folder: str | Path, max_images: int | None = None, seed: int 
         if not path.is_file():
             continue
         meta: dict = img["meta"] if isinstance(img.get("meta"), dict) else {}
-        mask = img.get("mask_file") or Path(img["file_name"]).with_suffix(".png").name
+        mask = img.get("mask_file") or str(Path(img["file_name"]).with_suffix(".png"))
         boxes = [a["bbox"] for a in e.annotations if isinstance(a.get("bbox"), (list, tuple))]
         gsd = num(meta, GSD_KEY)
-        index = int(img["id"]) - 1
+        index = int(img["id"])  # format 2: the image id is its index
         frames.append(Frame(path, 0, boxes, layout.masks / mask, meta, gsd,
                             "meta" if gsd else "unknown", oracle.bind(index, meta)))
     if not frames:
