@@ -16,9 +16,11 @@ import pytest
 from sdcomp.cli import COMMANDS
 from sdcomp.cli.realism import main
 from sdcomp.errors import UserError
+from sdcomp.render.camera.lens import lens_maps
 from sdcomp.report.realism import FILES, classifier, realism_report
 from sdcomp.report.realism.analysis import analyse_set
 from sdcomp.report.realism.patches import empty_water, to_patches
+from sdcomp.report.realism.sea import pinhole_pixels
 from sdcomp.report.realism.sources import FrameSet, load_frame, load_generated, load_real
 from sdcomp.report.realism.targets import evaluate_targets
 from sdcomp.scene.camera import CameraModel, CameraPose, centre_gsd
@@ -39,15 +41,38 @@ def test_generated_frames_are_read_with_masks_and_gsd(gen_default):
     fs = load_generated(gen_default, max_images=6, seed=3)
     assert len(fs.frames) == 6 and [f.group for f in fs.frames] == list(range(6))
     model = CameraModel(width=192, height=192)
+    zooms = []
     for f in fs.frames:
         pose = CameraPose(f.meta["height_above_takeoff(meter)"], f.meta["gimbal_pitch(degrees)"])
-        assert f.gsd == pytest.approx(centre_gsd(model, pose), rel=1e-4)
+        zooms.append(f.camera["K"][0][0] / model.fx)  # the lens's zoom magnifies the image
+        assert f.gsd == pytest.approx(centre_gsd(model, pose) / zooms[-1], rel=1e-4)
         loaded = load_frame(f)
         assert loaded is not None and loaded.rgb.shape == (192, 192, 3)
         inst = loaded.instances
         assert inst is not None and inst.dtype == np.uint16
         keep = empty_water(inst.shape, inst, f.boxes)
         assert not (keep & to_patches(inst).reshape(len(keep), -1).any(axis=1)).any()
+    assert max(zooms) > 1.001  # the default looks' lenses were recorded
+
+
+def test_recorded_pixels_are_traced_back_through_the_lens():
+    """The sea oracle's pinhole_pixels inverts the camera stage's lens (zoom and radial
+    distortion) as the COCO camera record gives it; no record: the pixel centres."""
+    model = CameraModel(width=160, height=120)
+    u0, v0 = pinhole_pixels(model, None)
+    assert u0[0, 0] == 0.5 and v0[-1, -1] == 119.5 and u0.shape == (120, 160)
+    lens = lens_maps(160, 120, model.fx, model.fy, -0.05, 0.01)
+    assert lens.zoom > 1.01
+    record = {"K": [[model.fx * lens.zoom, 0, 79.5], [0, model.fy * lens.zoom, 59.5],
+                    [0, 0, 1]], "dist_coeffs": [-0.05, 0.01, 0, 0, 0], "width": 160,
+              "height": 120}
+    u, v = pinhole_pixels(model, record)
+    back = lens.forward(np.stack([u - 0.5, v - 0.5], axis=-1))
+    np.testing.assert_allclose(back[..., 0], u0 - 0.5, atol=1e-6)
+    np.testing.assert_allclose(back[..., 1], v0 - 0.5, atol=1e-6)
+    assert np.abs(v - v0).max() > 1.0  # the top row's middle comes from lower down
+    other = dict(record, width=80)  # a record of another size is not this image's
+    assert np.array_equal(pinhole_pixels(model, other)[0], u0)
 
 
 def test_sky_and_land_are_not_water(gen_shore):
@@ -176,7 +201,9 @@ def test_command_prints_verdicts(gen_default, gen_grey, tmp_path):
     rc, out, err = cli([gen_default, "--real", gen_grey, "--out", tmp_path / "o",
                         "--max-images", "6", "--folds", "2"], main)
     assert rc == 0, err
-    assert "classifier accuracy" in out and "targets:" in out and "FAIL  median" in out
+    assert "classifier accuracy" in out and "targets:" in out
+    verdicts = [line for line in out.splitlines() if line.startswith(("PASS  ", "FAIL  "))]
+    assert len(verdicts) == 8 and "median saturation in [0.1, 0.25]" in verdicts[0]
     assert (tmp_path / "o" / "report.md").is_file() and "realism" in COMMANDS
 
 

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..render.water.optics import beam_attenuation, iops, swatch
 from ..scene.camera import camera_basis
 from ..scene.scene import Placement, Role
 from .masks import Frame, Instance
@@ -74,7 +75,8 @@ def dji_heading(heading: float) -> float:
 def camera_record(frame: Frame, preset: str = "") -> dict:
     """The image's camera, as BOP (``cam_K``, ``cam_R_w2c``, ``cam_t_w2c``) and Kubric
     record it: ``K`` 3x3 pixels in OpenCV's convention (pixel (0, 0)'s centre at (0, 0), so
-    cx = width / 2 - 0.5), ``dist_coeffs`` (k1, k2, p1, p2, k3: all 0, a pinhole), the image
+    cx = width / 2 - 0.5) and ``dist_coeffs`` (k1, k2, p1, p2, k3) of the recorded image
+    (the camera stage's lens: its zoom scales the focal lengths; all 0 without it), the image
     size, the sensor (``preset`` name, native pixels, diagonal FOV degrees), and the pose:
     ``R_w2c`` (3x3, rows = camera x right, y down, z forward in world axes: x east, y north,
     z up, metres, the sea at z = 0) and ``t_w2c`` metres, so x_cam = R_w2c @ x_world +
@@ -82,9 +84,11 @@ def camera_record(frame: Frame, preset: str = "") -> dict:
     model, pose = frame.scene.model, frame.scene.camera
     rot = camera_basis(pose.pitch, pose.heading)
     t = -rot @ pose.position
-    return {"K": [[round(model.fx, 6), 0.0, model.width / 2 - 0.5],
-                  [0.0, round(model.fy, 6), model.height / 2 - 0.5], [0.0, 0.0, 1.0]],
-            "dist_coeffs": [0.0] * 5, "width": model.width, "height": model.height,
+    zoom = float(frame.camera.get("zoom", 1.0))
+    dist = [round(float(v), 9) + 0.0 for v in frame.camera.get("dist", [0.0] * 5)]
+    return {"K": [[round(model.fx * zoom, 6), 0.0, model.width / 2 - 0.5],
+                  [0.0, round(model.fy * zoom, 6), model.height / 2 - 0.5], [0.0, 0.0, 1.0]],
+            "dist_coeffs": dist, "width": model.width, "height": model.height,
             "sensor": {"preset": preset, "width_px": model.sensor_width,
                        "height_px": model.sensor_height,
                        "diagonal_fov_deg": round(float(model.diagonal_fov), 6)},
@@ -94,29 +98,45 @@ def camera_record(frame: Frame, preset: str = "") -> dict:
 
 def image_meta(frame: Frame) -> dict:
     """Per-image metadata (names follow SeaDronesSee's ``meta`` where they overlap;
-    ``gimbal_heading(degrees)`` in DJI's convention: clockwise from north, -180 to 180)."""
+    ``gimbal_heading(degrees)`` in DJI's convention: clockwise from north, -180 to 180): the
+    camera's pose and ground sampling distance, the water (its name, type, constituents,
+    mean beam attenuation, colour swatch), waves, sky and sun, what else is in the frame,
+    and what the camera did (look preset, stages, exposure, blur; its intrinsics and
+    distortion are in :func:`camera_record`)."""
     s = frame.scene
-    fx = s.effects
+    w = s.water
+    a, bb = iops(w.chl, w.cdom, w.tsm)
+    cam = frame.camera
+    motion = cam.get("motion_px", 0.0) if "motion" in cam.get("stages", ()) else 0.0
     return {
         "height_above_takeoff(meter)": round(s.camera.altitude, 4),
         "gimbal_pitch(degrees)": round(s.camera.pitch, 4),
         "gimbal_heading(degrees)": round(dji_heading(s.camera.heading), 4),
         "gsd(m/px)": round(frame.gsd, 6),
-        "water_color": s.water_name,
-        "water_rgb": list(s.water_rgb),
-        "turbidity": round(s.turbidity, 4),
-        "attenuation(1/m)": round(s.attenuation, 5),
-        "wind(m/s)": round(s.wind, 3),
-        "floor_depth(meter)": round(s.floor_depth, 3),
-        "sun_elevation(degrees)": round(s.sun_elevation, 3),
-        "sun_azimuth(degrees)": round(s.sun_azimuth, 3),
+        "water_color": w.name,
+        "water_type": w.water_type,
+        "water_rgb": list(w.rgb) if w.rgb is not None else list(swatch(a, bb)),
+        "chlorophyll(mg/m3)": round(w.chl, 4),
+        "cdom(1/m)": round(w.cdom, 4),
+        "suspended_solids(g/m3)": round(w.tsm, 4),
+        "turbidity": round(w.turbidity, 4),
+        "attenuation(1/m)": round(float(np.mean(beam_attenuation(a, bb))), 5),
+        "shallow_depth(meter)": None if w.depth is None else round(w.depth, 3),
+        "wind(m/s)": round(w.wind, 3),
+        "swell_height(meter)": round(w.swell_height, 3),
+        "sky": w.sky,
+        "cloud_cover": round(w.cloud_cover, 3),
+        "sun_elevation(degrees)": round(w.sun_elevation, 3),
+        "sun_azimuth(degrees)": round(w.sun_azimuth, 3),
         "shore": s.shore is not None,
         "hills": s.hills is not None,
         "clutter": s.count(Role.CLUTTER),
         "objects_placed": s.count(Role.OBJECT),
         "objects_dropped": frame.dropped,
-        "exposure(stops)": round(fx.exposure, 4),
-        "noise_sigma": round(fx.noise, 4),
-        "motion_blur_px": round(fx.motion_blur[0], 3) if fx.motion_blur else 0.0,
-        "defocus_sigma_px": round(fx.defocus_blur, 3) if fx.defocus_blur else 0.0,
+        "camera_look": s.look.preset,
+        "recording": s.look.recording,
+        "exposure_gain": round(float(cam.get("exposure_gain", 1.0)), 4),
+        "motion_blur_px": round(float(motion), 3),
+        "defocus_sigma_px": round(s.defocus_blur, 3) if s.defocus_blur else 0.0,
+        "camera_stages": list(cam.get("stages", ())),
     }

@@ -20,7 +20,7 @@ from ..pipeline import DEFAULT_SPRITES
 from ..run.engines import ENGINES
 from ..run.options import RunOptions
 from ..run.shards import parse_shard
-from ..scene.config import PRESETS, GeneratorConfig, ObjectSpec, load_toml, preset
+from ..scene.config import PRESETS, RETIRED, GeneratorConfig, ObjectSpec, load_toml, preset
 from ..scene.settings import setting_of
 from ..util.log import add_verbosity_flags, setup_logging
 from . import Parser, prog
@@ -117,6 +117,9 @@ def _add_dataset_options(group: argparse._ArgumentGroup) -> None:
             shown = default if default is not None else "none"
             group.add_argument(flag, dest=f.name, default=None, metavar=metavar or None,
                                help=f"{text} (default: {shown})")
+    for name in RETIRED:  # earlier versions' flags: accepted with a warning, not listed
+        group.add_argument("--" + name.replace("_", "-"), dest="retired_" + name,
+                           default=None, help=argparse.SUPPRESS)
 
 
 def _cores() -> int:
@@ -136,6 +139,8 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
                                               f"--config {args.config}")
     given = {f.name: getattr(args, f.name) for f in fields(GeneratorConfig)
              if getattr(args, f.name, None) is not None}
+    given.update({name: v for name in RETIRED
+                  if (v := getattr(args, "retired_" + name, None)) is not None})
     if args.size is not None:
         if args.size < 1:
             raise UserError(f"--size {args.size} is out of range: use 1 to 32000 pixels")

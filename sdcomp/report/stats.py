@@ -201,13 +201,18 @@ def format_table(stats: dict) -> str:
 # --------------------------------------------------------------------------- figure
 
 def _water_rgb(name: str) -> tuple[float, float, float]:
-    """Bar colour of a water colour name or "R,G,B" (grey when it is neither)."""
-    from ..scene.water import parse_water
+    """Bar colour of a water name or "R,G,B" (grey when it is neither): a custom colour
+    itself, else the swatch of the (first) type's middle constituents."""
+    from ..render.water.optics import iops, swatch
+    from ..scene.water import WATER_TYPES, parse_water
 
     try:
-        rgb = parse_water(name)[1]
+        _, types, rgb = parse_water(name)
     except UserError:
         return (0.5, 0.5, 0.5)
+    if rgb is None:
+        chl, cdom, tsm = (math.sqrt(lo * hi) for lo, hi in WATER_TYPES[types[0]])
+        rgb = swatch(*iops(chl, cdom, tsm))
     return (rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0)
 
 

@@ -75,7 +75,7 @@ def make_record(gen: Generator, index: int, layout: DatasetLayout,
     split = split_of(config.seed, index, config.val_fraction)
     name = split_name(index, config.image_format, split)
     mask_name = split_name(index, "png", split)
-    data = encode_image(frame.image, config.image_format, frame.scene.effects.jpeg_quality)
+    data = encode_image(frame.image, config.image_format, frame.scene.jpeg_quality)
     files.write_file(layout.images / name, data)
     files.write_file(layout.masks / mask_name, encode_png16(frame.instances))
     anns = coco_annotations(frame)

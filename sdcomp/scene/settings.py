@@ -13,15 +13,17 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from ..errors import SettingError
+from ..errors import SettingError, UserError
 from .params import Param, parse_param
 
 #: kinds of :class:`Setting` whose check is :meth:`Setting.check`; "custom" fields are
 #: checked by the config itself
-KINDS = ("param", "float", "int", "bool", "custom")
+KINDS = ("param", "float", "int", "bool", "path", "custom")
 
 
 @dataclass(frozen=True)
@@ -29,8 +31,9 @@ class Setting:
     """A config field's declaration (see the module docstring).
 
     ``kind``: "param" (a :class:`Param`: a value, range or list drawn per image), "float",
-    "int", "bool" or "custom"; ``lo``/``hi``: inclusive bounds; ``unit``: shown after
-    numbers; ``integer``: whole-number params; ``metavar``, ``help``: the command line's."""
+    "int", "bool", "path" (a file or folder path, or None) or "custom"; ``lo``/``hi``:
+    inclusive bounds; ``unit``: shown after numbers; ``integer``: whole-number params;
+    ``metavar``, ``help``: the command line's."""
 
     kind: str
     help: str
@@ -54,6 +57,8 @@ class Setting:
             if not isinstance(value, bool):
                 raise SettingError(name, "{name} must be true or false")
             return value
+        if self.kind == "path" and value is not None:
+            return path_text(value, name)
         return value
 
 
@@ -114,6 +119,13 @@ def int_pair(v: Any, name: str) -> tuple[int, int]:
     return a, b
 
 
+def path_text(v: Any, name: str) -> str:
+    """``v`` (text or a :class:`~pathlib.Path`) as path text; SettingError otherwise."""
+    if not isinstance(v, (str, Path)) or "\0" in str(v):
+        raise SettingError(name, f"{{name}} {v!r} must be a file or folder path")
+    return str(v)
+
+
 def names(v: Any, name: str) -> tuple:
     """A list-valued field as a tuple: one text is a list of one; SettingError for the
     rest."""
@@ -140,3 +152,18 @@ def toml_value(v: Any) -> str:
         return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_value(x)}"
                                for k, x in v.items()) + "}"
     raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def load_toml(path: str | Path) -> dict:
+    """The table of a TOML config file (keys = field names), or UserError."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise UserError(f"--config {p}: no such file") from None
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise UserError(f"--config {p}: not a readable TOML file ({e})") from None
+    if "generate" in data and isinstance(data["generate"], dict):
+        data = data["generate"]
+    return data

@@ -8,6 +8,11 @@ config and the index) and used only if its camera pose, shore flag and object an
 counts agree with the image's ``meta`` (a dataset written by another sdcomp version may
 draw other scenes); then the pixels whose ground point is on its land, widened by the foam
 line, are left out. Otherwise land is "unknown, accepted" and the report says so.
+
+Both are decided in the renderer's pinhole image; each pixel of the recorded image is looked
+up where the camera stage's lens (:mod:`sdcomp.render.camera.lens`: zoom and radial
+distortion) took it from, as the image's COCO ``camera`` record (``K``, ``dist_coeffs``) says
+(:func:`pinhole_pixels`).
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import cv2
 import numpy as np
 
 from ...errors import UserError
+from ...render.camera.lens import undistort
 from ...scene.camera import CameraModel, CameraPose, ground_points, horizon_row
 from ...scene.config import GeneratorConfig
 from ...scene.sample import CLUTTER_PREFIX, sample_scene
@@ -57,9 +63,9 @@ class SeaOracle:
         except (UserError, TypeError, ValueError):
             self.config = None
 
-    def bind(self, index: int, meta: dict) -> Callable:
+    def bind(self, index: int, meta: dict, camera: dict | None = None) -> Callable:
         """The ``valid(shape)`` callable of image ``index`` (see :meth:`mask`)."""
-        return lambda shape: self.mask(index, meta, shape)
+        return lambda shape: self.mask(index, meta, shape, camera)
 
     def scene(self, index: int, meta: dict, model: CameraModel) -> Scene | None:
         """The image's scene drawn again, or None when it disagrees with ``meta``."""
@@ -81,9 +87,10 @@ class SeaOracle:
                 return None
         return scene
 
-    def mask(self, index: int, meta: dict, shape: tuple[int, int]
+    def mask(self, index: int, meta: dict, shape: tuple[int, int], camera: dict | None = None
              ) -> tuple[np.ndarray | None, str]:
-        """((H, W) bool valid pixels or None = all, how it was made) of image ``index``."""
+        """((H, W) bool valid pixels or None = all, how it was made) of image ``index``;
+        ``camera``: its COCO camera record (the recorded image's lens), None for a pinhole."""
         h, w = shape
         pitch = num(meta, PITCH_KEY)
         if self.config is None or pitch is None:
@@ -91,16 +98,15 @@ class SeaOracle:
         c = self.config.camera_model()
         model = CameraModel(c.sensor_width, c.sensor_height, c.diagonal_fov, w, h)
         valid = None
+        u, v = pinhole_pixels(model, camera)
         if pitch < 90:
-            top = horizon_row(model, pitch) + SKY_MARGIN_ROWS
-            valid = np.repeat((np.arange(h) + 0.5 >= top)[:, None], w, axis=1)
+            valid = v >= horizon_row(model, pitch) + SKY_MARGIN_ROWS
         how = ["sky excluded" if valid is not None else "no sky in view"]
         scene = self.scene(index, meta, model)
         clutter = ([p for p in scene.placements if p.role is Role.CLUTTER]
                    if scene is not None and self.exclude_clutter else [])
         bad = np.zeros((h, w), bool)
         if scene is not None and (scene.shore is not None or clutter):
-            u, v = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
             pts, hit = ground_points(model, scene.camera, u, v)
             x, y = pts[..., 0], pts[..., 1]
             if scene.shore is not None:
@@ -120,6 +126,31 @@ class SeaOracle:
         if bad.any():
             valid = ~bad if valid is None else valid & ~bad
         return valid, "; ".join(how)
+
+
+def pinhole_pixels(model: CameraModel, camera: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """(u, v), each (H, W) float64 pixels (centres at +0.5) of ``model``'s size: where each
+    pixel of the recorded image lies in the renderer's pinhole image of ``model``, undoing
+    the zoom and radial distortion (k1, k2) of its COCO ``camera`` record (``K`` 3 x 3 with
+    the zoomed focal lengths, ``dist_coeffs``; OpenCV's convention, pixel (0, 0)'s centre at
+    0). The pixel centres themselves without a record, or with one of another size."""
+    w, h = model.width, model.height
+    u, v = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    if not camera:
+        return u, v
+    try:
+        k = np.asarray(camera["K"], np.float64)
+        k1, k2 = (float(c) for c in camera["dist_coeffs"][:2])
+        size = (int(camera["width"]), int(camera["height"]))
+    except (KeyError, TypeError, ValueError, IndexError):
+        return u, v
+    if k.shape != (3, 3) or size != (w, h) or not np.isfinite(k).all() or k[0, 0] <= 0 or (
+            k[1, 1] <= 0):
+        return u, v
+    cx, cy = k[0, 2], k[1, 2]
+    xd = np.stack([(u - 0.5 - cx) / k[0, 0], (v - 0.5 - cy) / k[1, 1]], axis=-1)
+    xu = undistort(xd, k1, k2)
+    return cx + 0.5 + model.fx * xu[..., 0], cy + 0.5 + model.fy * xu[..., 1]
 
 
 def _gsd(model: CameraModel, pose: CameraPose) -> float:

@@ -40,6 +40,8 @@ class Frame:
         boxes: (x, y, w, h) pixel boxes to keep clear (objects), or None when unknown.
         mask_path: the 16-bit instance-id PNG (generated sets), or None.
         meta: the image's metadata (COCO ``meta``), possibly empty.
+        camera: the image's COCO ``camera`` record (intrinsics ``K`` with the lens's zoom,
+            ``dist_coeffs``, pose), possibly empty.
         gsd: metres per pixel at the image centre, or None when unknown.
         gsd_source: where ``gsd`` comes from: "meta", "camera", "user" or "unknown".
         valid: callable (H, W) -> ((H, W) bool valid-pixel mask or None for all, how) or None.
@@ -54,6 +56,7 @@ class Frame:
     gsd_source: str = "unknown"
     valid: Callable | None = None
     source: Source | None = None
+    camera: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -151,9 +154,11 @@ def load_generated(folder: str | Path, max_images: int | None = None, seed: int 
         mask = img.get("mask_file") or str(Path(img["file_name"]).with_suffix(".png"))
         boxes = [a["bbox"] for a in e.annotations if isinstance(a.get("bbox"), (list, tuple))]
         gsd = num(meta, GSD_KEY)
+        camera: dict = img["camera"] if isinstance(img.get("camera"), dict) else {}
         index = int(img["id"])  # format 2: the image id is its index
         frames.append(Frame(path, 0, boxes, layout.masks / mask, meta, gsd,
-                            "meta" if gsd else "unknown", oracle.bind(index, meta)))
+                            "meta" if gsd else "unknown", oracle.bind(index, meta, camera),
+                            camera=camera))
     if not frames:
         raise UserError(f"{str(layout.root)!r} has no readable images listed in its "
                         f"annotations; give the --out folder of a finished `sdcomp generate`")
