@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .patches import LUMA
 from .spectrum import log_edges, patch_power, radial_frequency
 
 SPEC_BINS = 8
@@ -71,7 +72,7 @@ def patch_features(rgb: np.ndarray, hp: np.ndarray | None = None) -> np.ndarray:
     tall = rgb.reshape(n * s, s, 3)  # one image of stacked patches for colour conversions
     hsv = cv2.cvtColor(tall, cv2.COLOR_RGB2HSV).reshape(n, s * s, 3).astype(np.float32)
     lab = cv2.cvtColor(tall, cv2.COLOR_RGB2LAB).reshape(n, s * s, 3).astype(np.float32)
-    y = flat @ np.array([0.299, 0.587, 0.114], np.float32)
+    y = flat @ LUMA
     if hp is None:
         hp = y.reshape(n, s, s) - box_blur_stack(y.reshape(n, s, s))
     hp = np.asarray(hp, np.float32).reshape(n, s * s)
