@@ -95,7 +95,8 @@ class Generator:
                 sprites[clutter_asset(kind)] = _sprites(
                     clutter_meshes.build(kind), CLUTTER_ATLAS, sprites_dir, progress,
                     build_workers, rebuild=True)
-        photos = Backgrounds(config.backgrounds) if config.backgrounds else None
+        photos = (Backgrounds(config.backgrounds, config.background_labels)
+                  if config.backgrounds else None)
         assets = RenderAssets(sprites, Textures.build(config.seed), photos)
         self.compositor = Compositor(assets)
         self.compositor.prepare(self.model, FeatureSeeds.of(0, config.seed).noise_tile)

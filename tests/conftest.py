@@ -74,3 +74,40 @@ def frame416() -> tuple[np.ndarray, np.ndarray]:
     img = water_like(416, 416, 1)
     ins = squares(416, 416, [(100, 100, 20), (200, 180, 30), (260, 300, 12), (150, 250, 16)])
     return img, ins
+
+
+# --------------------------------------------------------------------------- small datasets
+
+@pytest.fixture(scope="session")
+def small_datasets(tmp_path_factory, sprites_dir):
+    """``make(name, *flags)``: a generated dataset folder at 192 px (no progress line, one
+    worker), made once per session and name; shared by the realism and sim2real tests."""
+    from .datasets import generate
+
+    made: dict[str, Path] = {}
+    root = tmp_path_factory.mktemp("small_datasets")
+
+    def make(name: str, *flags) -> Path:
+        if name not in made:
+            out = root / name
+            rc, _, err = generate(["--size", "192", *flags], out, sprites_dir)
+            assert rc == 0, err
+            made[name] = out
+        return made[name]
+
+    return make
+
+
+@pytest.fixture(scope="session")
+def gen_default(small_datasets) -> Path:
+    """32 images of the default settings (10-50 m, straight down, brown/blue/green water)."""
+    return small_datasets("default", "--n", "32", "--seed", "1")
+
+
+@pytest.fixture(scope="session")
+def gen_grey(small_datasets) -> Path:
+    """16 images of grey water (120, 130, 125) under an overcast sky through a clean camera
+    (no sun glitter, no lens, noise or codec): a stand-in for real frames that a classifier
+    should tell from the default settings."""
+    return small_datasets("grey", "--n", "16", "--seed", "2", "--water", "120,130,125",
+                          "--sky", "overcast", "--look", "clean")

@@ -102,7 +102,8 @@ def test_dump_config_round_trip(tmp_path):
     assert rc == 0, err
     assert not (tmp_path / "never").exists()  # nothing written
     data = tomllib.loads(dumped)
-    assert set(data) == set(GeneratorConfig().to_dict()) - {"sensor_px", "backgrounds"}
+    assert set(data) == set(GeneratorConfig().to_dict()) - {"sensor_px", "backgrounds",
+                                                           "background_labels"}
     assert data["altitude"] == "12-18" and data["pitch"] == "40-90"
     assert data["format"] == ["coco", "yolo"] and data["yolo_seg"] is True
     (tmp_path / "dump.toml").write_text(dumped)

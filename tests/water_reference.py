@@ -7,21 +7,16 @@ for the pixel's own normal (long waves + the three drawn texture layers), instea
 linearised ``A + B z`` of the fast path (no glitter, no whitecaps).
 
 :func:`patch_stats` and :func:`summarise` are the realism metrics the water was tuned to
-(copied from the prototype's ``seawater/metrics.py``; sdcomp itself has no patch metrics):
-
-- ``Y = 0.299 R + 0.587 G + 0.114 B`` (float32, 0..255);
-- ``highpass = Y - box9(Y)`` (9 x 9 box mean, borders reflected without repeating the edge
-  pixel: OpenCV's BORDER_REFLECT_101) on the whole image, then cut into patches;
-- ``S = (max - min) / max`` of R, G, B (0 where max = 0);
-- patches: non-overlapping 64 x 64 tiles from the top-left corner; a patch counts when all
-  its pixels see the sea (``valid``);
-- per patch: saturation = mean(S), luminance = mean(Y), highpass_std = std(highpass),
-  glint_fraction = mean(Y >= 230).
+(the prototype's ``seawater/metrics.py``), as the realism report computes them
+(:mod:`sdcomp.report.realism.patches`, defined in docs/realism.md): Rec. 601 luma ``Y`` of
+the 8-bit values, ``highpass = Y - box9(Y)`` on the whole image, HSV saturation, 64 x 64
+patches from the top-left corner; a patch counts when all its pixels see the sea
+(``valid``). :data:`REAL` holds the real frames' figures
+(:data:`sdcomp.report.realism.targets.REAL_REFERENCE`) as (median, p10, p90).
 """
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from sdcomp.render.water import optics
@@ -30,13 +25,15 @@ from sdcomp.render.water.layers import wave_layers
 from sdcomp.render.water.optics import N_WATER, fresnel
 from sdcomp.render.water.shading import _slopes_box
 from sdcomp.render.water.surface import draw_water, view_water
+from sdcomp.report.realism import patches
+from sdcomp.report.realism.patches import highpass
+from sdcomp.report.realism.patches import luminance as luma
+from sdcomp.report.realism.targets import REAL_REFERENCE
 from sdcomp.scene.camera import camera_basis
 
-PATCH = 64
-METRICS = ("saturation", "luminance", "highpass_std", "glint_fraction")
-#: real SeaDronesSee-like frames: (median, 10th, 90th percentile) per metric
-REAL = {"saturation": (0.18, 0.04, 0.32), "luminance": (121.0, None, None),
-        "highpass_std": (6.2, 2.1, 26.2), "glint_fraction": (0.003, 0.0, 0.18)}
+__all__ = ["REAL", "highpass", "luma", "patch_stats", "render_reference", "summarise"]
+#: real SeaDronesSee-like frames: (median, 10th, 90th percentile) per metric (None: unknown)
+REAL = {m: (r["median"], r.get("p10"), r.get("p90")) for m, r in REAL_REFERENCE.items()}
 
 
 def render_reference(model, pose, params, textures) -> tuple[np.ndarray, dict]:
@@ -89,51 +86,13 @@ def render_reference(model, pose, params, textures) -> tuple[np.ndarray, dict]:
     return out, info
 
 
-def luma(rgb: np.ndarray) -> np.ndarray:
-    """(H, W) float32 ``0.299 R + 0.587 G + 0.114 B`` of an (H, W, 3) uint8 image."""
-    f = rgb.astype(np.float32)
-    return f[..., 0] * np.float32(0.299) + f[..., 1] * np.float32(0.587) + f[..., 2] * \
-        np.float32(0.114)
-
-
-def highpass(y: np.ndarray) -> np.ndarray:
-    """``y`` minus its 9 x 9 box mean (borders reflected, BORDER_REFLECT_101)."""
-    return y - cv2.blur(y, (9, 9), borderType=cv2.BORDER_REFLECT_101)
-
-
 def patch_stats(rgb: np.ndarray, valid: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per-patch statistics {metric: (m,) float64} of an (H, W, 3) uint8 RGB image over the
-    64 x 64 patches that see only the sea (see the module docstring)."""
-    a = np.ascontiguousarray(rgb)
-    y = luma(a)
-    hp = highpass(y)
-    r, g, b = cv2.split(a)
-    mx = cv2.max(cv2.max(r, g), b).astype(np.float32)
-    mn = cv2.min(cv2.min(r, g), b).astype(np.float32)
-    s = np.divide(mx - mn, mx, out=np.zeros_like(mx), where=mx > 0)
-    h, w = y.shape
-    rows, cols = h // PATCH, w // PATCH
-
-    def tiles(m):
-        t = m[:rows * PATCH, :cols * PATCH].reshape(rows, PATCH, cols, PATCH)
-        return t.swapaxes(1, 2).reshape(rows * cols, PATCH * PATCH)
-
-    keep = np.ones(rows * cols, bool)
-    if valid is not None:
-        keep &= tiles(np.asarray(valid, bool)).all(axis=1)
-    yt, ht, st = tiles(y)[keep], tiles(hp)[keep], tiles(s)[keep]
-    return {"saturation": st.mean(1, dtype=np.float64),
-            "luminance": yt.mean(1, dtype=np.float64),
-            "highpass_std": ht.std(1, dtype=np.float64),
-            "glint_fraction": (yt >= 230.0).mean(1, dtype=np.float64)}
+    64 x 64 patches that see only the sea (``valid`` (H, W) bool; None: every patch)."""
+    keep = patches.empty_water(rgb.shape[:2], valid=valid)
+    return patches.patch_stats(rgb, keep)
 
 
 def summarise(stats: list[dict[str, np.ndarray]]) -> dict[str, dict[str, float]]:
-    """{metric: {n, median, p10, p90}} over the concatenated per-patch statistics."""
-    out = {}
-    for m in METRICS:
-        v = np.concatenate([np.asarray(s[m], np.float64) for s in stats])
-        p10, p50, p90 = np.percentile(v, (10, 50, 90)) if v.size else (np.nan,) * 3
-        out[m] = {"n": int(v.size), "median": float(p50), "p10": float(p10),
-                  "p90": float(p90)}
-    return out
+    """{metric: {n, median, p10, p90, ...}} over the concatenated per-patch statistics."""
+    return patches.summarise(patches.concat_stats(stats))

@@ -8,11 +8,15 @@
     python -m sdcomp.bench eval results/ --cell alt10-brown-n626 --test-coco real.json \\
         --test-images frames/
     python -m sdcomp.bench report results/
+    python -m sdcomp.bench sim2real --train gen/ --real frames/ --real-labels frames.json \
+        --out s2r/ [--map kayak=boat]
 
 ``grid`` trains and scores every cell of a preset (finished cells are skipped, interrupted
 ones resume) and writes the report; ``train`` does one cell; ``eval`` re-scores a trained
 cell on another test set (printed and written to ``OUT/eval/``); ``report`` rewrites
-``report.md`` and the plots. Training flags override the preset's values.
+``report.md`` and the plots. Training flags override the preset's values. ``sim2real``
+trains on generated datasets of any categories and scores on the user's labelled real
+frames (:mod:`sdcomp.bench.sim2real`).
 """
 
 from __future__ import annotations
@@ -112,7 +116,45 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--threads", type=int, metavar="N", help="torch CPU threads")
     r = sub.add_parser("report", help="write report.md and plots of a results folder")
     r.add_argument("results", metavar="DIR", help="results folder")
+    _sim2real_parser(sub)
     return p
+
+
+def _sim2real_parser(sub) -> None:
+    s = sub.add_parser("sim2real", help="train on generated data, score on your labelled "
+                       "real frames, and say whether the object or the scene is the gap")
+    s.add_argument("--train", action="append", required=True, metavar="DIR",
+                   help="generated dataset folder (repeat for several); its train split "
+                        "trains, its val split is the synthetic reference")
+    s.add_argument("--real", required=True, metavar="FRAMES",
+                   help="your real frames: a folder (or file) of photos and videos")
+    s.add_argument("--real-labels", required=True, metavar="LABELS",
+                   help="their labels: a COCO json file or a YOLO labels folder")
+    s.add_argument("--map", action="append", default=[], metavar="GEN=REAL",
+                   help="generated category GEN is real category REAL (repeatable; "
+                        "default: categories of the same name, case-insensitive)")
+    s.add_argument("--unlabelled", metavar="PATH", help="unlabelled real photos or videos to "
+                   "re-estimate BatchNorm statistics on (default: the --real frames, their "
+                   "labels unused)")
+    s.add_argument("--unlabelled-max", type=int, default=200, metavar="N",
+                   help="at most N of them, evenly spaced (default: %(default)s)")
+    s.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    s.add_argument("--overwrite", action="store_true",
+                   help="retrain even if OUT holds a training of other settings")
+    s.add_argument("--score-threshold", type=float, default=0.5, metavar="S",
+                   help="detections drawn in detections.jpg score at least S (default: "
+                        "%(default)s)")
+    s.add_argument("--device", default="auto", metavar="DEV", help="auto, cpu or cuda[:N]")
+    s.add_argument("--threads", type=int, metavar="N", help="torch CPU threads")
+    s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress line (default: only on a terminal)")
+    g = s.add_argument_group("training (default: the paper's schedule, as grid)")
+    for dest, (typ, metavar, text) in TRAIN_FLAGS.items():
+        if dest != "min_scale":  # images are never resized here
+            g.add_argument("--" + dest.replace("_", "-"), dest=dest, type=typ,
+                           metavar=metavar, help=text)
+    g.add_argument("--hflip", action=argparse.BooleanOptionalAction, default=None,
+                   help="random horizontal flips")
 
 
 def grid_from_args(args) -> GridSpec:
@@ -155,8 +197,10 @@ def _context(args, out: Path):
     workers = getattr(args, "workers", 1)
     if workers < 1:
         raise UserError(f"--workers {workers} is out of range: use 1 or more")
-    cache = CacheOptions(Path(args.cache) if args.cache else out / "datasets",
-                         Path(args.sprites), workers, getattr(args, "progress", None))
+    cache_dir = getattr(args, "cache", None)
+    cache = CacheOptions(Path(cache_dir) if cache_dir else out / "datasets",
+                         Path(getattr(args, "sprites", DEFAULT_SPRITES)), workers,
+                         getattr(args, "progress", None))
     return RunContext(out, cache, resolve_device(args.device), getattr(args, "progress", None))
 
 
@@ -255,6 +299,31 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_sim2real(args) -> int:
+    from .sim2real import Sim2RealSpec, run_sim2real
+    from .train import TrainConfig
+    train = {d: getattr(args, d) for d in TRAIN_FLAGS if getattr(args, d, None) is not None}
+    if "train_seed" in train:
+        train["seed"] = train.pop("train_seed")
+    if args.hflip is not None:
+        train["hflip"] = args.hflip
+    out = Path(args.out)
+    ctx = _context(args, out)
+    spec = Sim2RealSpec(tuple(map(Path, args.train)), Path(args.real), Path(args.real_labels),
+                        out, tuple(args.map), Path(args.unlabelled) if args.unlabelled else
+                        None, args.unlabelled_max, TrainConfig(**train), ctx.device,
+                        args.progress, args.overwrite, args.score_threshold)
+    r = run_sim2real(spec)
+    for name, key in (("generated val", "synthetic_val"), ("real, as trained", "real_before"),
+                      ("real, BatchNorm re-estimated", "real_after")):
+        if r[key] is not None:
+            m = r[key]["bands"]["all"]
+            print(f"{name}: AP {m['AP']:.4f} AP50 {m['AP50']:.4f} AR100 {m['AR100']:.4f}")
+    print(f"verdict: {r['verdict']['text']}")
+    print(f"report: {out / 'report.md'}, picture: {out / 'detections.jpg'}")
+    return 0
+
+
 def _print_metrics(cell_id: str, test: dict, val: dict | None) -> None:
     m = test["metrics"]
     text = " ".join(f"{k} {v:.4f}" for k, v in m.items())
@@ -263,7 +332,8 @@ def _print_metrics(cell_id: str, test: dict, val: dict | None) -> None:
         print(f"{cell_id} on synthetic val: AP50 {val['metrics']['AP50']:.4f}")
 
 
-COMMANDS = {"grid": cmd_grid, "train": cmd_train, "eval": cmd_eval, "report": cmd_report}
+COMMANDS = {"grid": cmd_grid, "train": cmd_train, "eval": cmd_eval, "report": cmd_report,
+            "sim2real": cmd_sim2real}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

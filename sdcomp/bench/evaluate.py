@@ -99,3 +99,55 @@ def evaluate_detector(model, test, device: str = "cpu", batch_size: int = 4) -> 
     return {"test_set": test.label, "images": len(images),
             "boxes": len(gt["annotations"]), "detections": len(dets),
             "metrics": coco_metrics(gt, dets)}
+
+
+#: size bands of :func:`banded_metrics`: name -> (lowest, highest) box area, pixels^2; COCO's
+#: small / medium / large, with its small band split at 16^2 (drone objects are often tiny)
+BANDS = {"all": (0.0, 1e10), "tiny": (0.0, 16.0**2), "small": (16.0**2, 32.0**2),
+         "medium": (32.0**2, 96.0**2), "large": (96.0**2, 1e10)}
+
+
+def banded_metrics(gt: dict, detections: list[dict], category_ids: list[int] | None = None
+                   ) -> dict[str, dict]:
+    """COCOeval bounding-box AP, AP50 and AR100 per size band (:data:`BANDS`, by the ground
+    truth's ``area``) and per category, over ``category_ids`` (default: all of ``gt``).
+
+    Returns {"bands": {band: {"AP", "AP50", "AR100", "boxes"}}, "categories": {id: {band:
+    {...}}}}; values are fractions, -1 where a band has no ground truth (COCO's convention),
+    ``boxes`` the number of ground-truth boxes in the band."""
+    gt_coco = coco_from_dict(gt)
+    ids = category_ids if category_ids is not None else sorted(gt_coco.getCatIds())
+    anns = [{**d, "id": k + 1, "area": float(d["bbox"][2] * d["bbox"][3]), "iscrowd": 0}
+            for k, d in enumerate(detections)]
+    dt = coco_from_dict({"images": gt.get("images", []),
+                         "categories": gt.get("categories", []), "annotations": anns})
+    ev = COCOeval(gt_coco, dt, iouType="bbox")
+    ev.params.catIds = list(ids)
+    ev.params.areaRng = [list(r) for r in BANDS.values()]
+    ev.params.areaRngLbl = list(BANDS)
+    with contextlib.redirect_stdout(io.StringIO()):
+        ev.evaluate()
+        ev.accumulate()
+    precision = ev.eval["precision"][..., -1]  # (T, R, K, A) at 100 detections per image
+    recall = ev.eval["recall"][..., -1]  # (T, K, A)
+    areas = np.asarray([a["area"] for a in gt["annotations"]], np.float64)
+    cats = np.asarray([a["category_id"] for a in gt["annotations"]])
+
+    def band_values(k: slice | int) -> dict[str, dict]:
+        out = {}
+        for a, (name, (lo, hi)) in enumerate(BANDS.items()):
+            inside = (areas >= lo) & (areas <= hi) & np.isin(cats, ids if isinstance(k, slice)
+                                                            else [ids[k]])
+            out[name] = {"AP": _mean_valid(precision[:, :, k, a]),
+                         "AP50": _mean_valid(precision[0, :, k, a]),
+                         "AR100": _mean_valid(recall[:, k, a]), "boxes": int(inside.sum())}
+        return out
+
+    return {"bands": band_values(slice(None)),
+            "categories": {int(c): band_values(i) for i, c in enumerate(ids)}}
+
+
+def _mean_valid(a: np.ndarray) -> float:
+    """Mean of the entries > -1 (COCOeval's "undefined"), -1 when there are none."""
+    v = np.asarray(a)[np.asarray(a) > -1]
+    return round(float(v.mean()), 6) if v.size else -1.0

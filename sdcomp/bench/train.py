@@ -150,7 +150,8 @@ def _batch(items, config: TrainConfig, iteration: int, device):
     images, targets = [], []
     for j, idx in enumerate(batch_indices(len(items), config.batch_size, config.seed,
                                           iteration)):
-        path, boxes = items[idx]
+        path, boxes, *classes = items[idx]  # (path, boxes) or (path, boxes, labels)
+        labels = classes[0] if classes else np.ones(len(boxes), np.int64)
         image = read_image(path)
         boxes = boxes.copy()
         if config.hflip and np.random.default_rng([config.seed, iteration, j, 0xF1]
@@ -160,7 +161,7 @@ def _batch(items, config: TrainConfig, iteration: int, device):
             boxes[:, [0, 2]] = w - boxes[:, [2, 0]]
         images.append(to_tensor(image).to(device))
         targets.append({"boxes": torch.from_numpy(boxes).to(device),
-                        "labels": torch.ones(len(boxes), dtype=torch.int64, device=device)})
+                        "labels": torch.as_tensor(labels, dtype=torch.int64, device=device)})
     return images, targets
 
 
@@ -179,11 +180,17 @@ def resolve_device(device: str) -> str:
     return device
 
 
-def make_detector(config: TrainConfig, image_size: int, weights: str | None = None):
-    """The detector ``config`` trains (one class), with ``weights`` (default: the config's)."""
-    return build_detector(config.backbone, config.weights if weights is None else weights, 1,
-                          image_size, config.proposals_train, config.proposals_test,
-                          config.roi_batch, config.min_scale)
+def make_detector(config: TrainConfig, image_size: int, weights: str | None = None,
+                  num_classes: int = 1, native: bool = False):
+    """The detector ``config`` trains (``num_classes`` classes), with ``weights`` (default:
+    the config's); ``native``: it never resizes images (:func:`.adapt.native_resolution`)."""
+    model = build_detector(config.backbone, config.weights if weights is None else weights,
+                           num_classes, image_size, config.proposals_train,
+                           config.proposals_test, config.roi_batch, config.min_scale)
+    if native:
+        from .adapt import native_resolution
+        native_resolution(model)
+    return model
 
 
 def _optimizer(model, config: TrainConfig):
@@ -211,7 +218,8 @@ def load_checkpoint(path: Path, key: str | None = None) -> dict | None:
     return ckpt
 
 
-def _start_training(config: TrainConfig, image_size: int, ckpt: dict | None, device: str):
+def _start_training(config: TrainConfig, image_size: int, ckpt: dict | None, device: str,
+                    num_classes: int = 1, native: bool = False):
     """The detector and its optimizer, seeded with ``config.seed``, on ``device``, resumed
     from the checkpoint ``ckpt`` (:func:`load_checkpoint`) where there is one (the torch
     RNG state too). Returns ``(model, optimizer, start, losses, wall)``: the first iteration
@@ -219,7 +227,8 @@ def _start_training(config: TrainConfig, image_size: int, ckpt: dict | None, dev
     """
     torch, _ = require_torch()
     torch.manual_seed(config.seed)
-    model = make_detector(config, image_size, "none" if ckpt else config.weights)
+    model = make_detector(config, image_size, "none" if ckpt else config.weights,
+                          num_classes, native)
     model.to(device)
     opt = _optimizer(model, config)
     start, losses, wall = 0, [], 0.0
@@ -233,8 +242,11 @@ def _start_training(config: TrainConfig, image_size: int, ckpt: dict | None, dev
 
 def train(config: TrainConfig, items: list, image_size: int, checkpoint: Path, key: str,
           device: str = "cpu", progress: bool | None = None,
-          on_iteration: Callable[[int, float], None] | None = None):
-    """Train (or finish training) a detector on ``items`` (:func:`training_items`).
+          on_iteration: Callable[[int, float], None] | None = None, num_classes: int = 1,
+          native: bool = False):
+    """Train (or finish training) a detector on ``items`` (:func:`training_items`: (path,
+    boxes) pairs, or (path, boxes, labels) with labels (K,) int64 classes from 1 of
+    ``num_classes``); ``native``: at the images' own size (:func:`.adapt.native_resolution`).
 
     Returns ``(model, history)``: the model in eval mode on ``device``, and a dict with
     ``losses`` (per iteration: the total and each of :data:`LOSS_NAMES`, floats),
@@ -252,7 +264,8 @@ def train(config: TrainConfig, items: list, image_size: int, checkpoint: Path, k
     if not items:
         raise UserError("the cell's training split has no images; raise the image count")
     ckpt = load_checkpoint(checkpoint, key)
-    model, opt, start, losses, wall = _start_training(config, image_size, ckpt, device)
+    model, opt, start, losses, wall = _start_training(config, image_size, ckpt, device,
+                                                      num_classes, native)
     model.train()
     progress_line = Progress(config.max_iter - start, "train", progress, unit="it")
     t0 = time.perf_counter()

@@ -6,6 +6,7 @@
     sdcomp stats DIR ...          dataset statistics     (= python -m sdcomp.stats)
     sdcomp merge DIR... --out D   join shard folders     (= python -m sdcomp.merge)
     sdcomp bench ...              detector benchmarks    (= python -m sdcomp.bench)
+    sdcomp realism DIR ...        the realism report     (= python -m sdcomp.realism)
 
 Each job's parser and ``main(argv) -> int`` live in a module of this package
 (:mod:`sdcomp.cli.generate`, ...); ``python -m sdcomp.<job>`` runs the same ``main``.
@@ -41,6 +42,9 @@ COMMANDS: dict[str, tuple[str, str, str, str]] = {
               "join the folders of --shard runs into one dataset"),
     "bench": ("sdcomp.bench.cli", "main", "sdcomp.bench",
               "train and evaluate detectors on generated data (needs torch)"),
+    "realism": ("sdcomp.cli.realism", "main", "sdcomp.realism",
+                "how real a dataset looks: water statistics, targets, real-vs-synthetic "
+                "classifier"),
 }
 #: modules that may be missing from an installation, and what to do about it
 OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench package; "

@@ -130,8 +130,12 @@ class GeneratorConfig:
                                "at the same wind (0 = none)", "X", 0.0, 5.0)
     glitter: bool = setting(True, "bool", "draw the sun's glitter as sparkles (off: the "
                             "glint's mean brightness only; 0.5-2 ms less per 416 px image)")
-    backgrounds: str | None = setting(None, "custom", "composite onto your own empty-water "
-                                      "photos in DIR instead of procedural water", "DIR")
+    backgrounds: str | None = setting(None, "path", "composite onto your own footage "
+                                      "instead of procedural water: a folder (or file) of "
+                                      "photos and drone videos", "PATH")
+    background_labels: str | None = setting(None, "path", "COCO json or YOLO labels folder "
+                                            "of real objects in the --backgrounds frames: "
+                                            "kept out of every image", "LABELS")
     # light
     sun_elevation: Param = setting("25-80", "param", "sun elevation above the horizon, degrees",
                                    "DEG", 5.0, 90.0, "degrees")
@@ -209,7 +213,7 @@ class GeneratorConfig:
         self.camera_model()  # validates the combination
 
     def _check_water(self) -> None:
-        """Waters, skies, the camera look and the user's photo folder."""
+        """Waters, skies, the camera look and the user's footage (and its labels)."""
         water = names(self.water, "water")
         if not water:
             raise SettingError("water", "{name} needs at least one water: "
@@ -227,11 +231,9 @@ class GeneratorConfig:
         if self.recording not in RECORDINGS:
             raise SettingError("recording", f"{{name}} {self.recording!r} is unknown; use "
                                             f"{' or '.join(RECORDINGS)}")
-        if self.backgrounds is not None:
-            if not isinstance(self.backgrounds, (str, Path)) or "\0" in str(self.backgrounds):
-                raise SettingError("backgrounds", f"{{name}} {self.backgrounds!r} must be a "
-                                                  f"folder path")
-            self._put("backgrounds", str(self.backgrounds))
+        if self.background_labels is not None and self.backgrounds is None:
+            raise SettingError("background_labels", "{name} labels objects in the "
+                                                    "--backgrounds footage: give that too")
 
     def _check_objects(self) -> None:
         """Objects of interest (each its own category) and the clutter kinds."""

@@ -23,7 +23,7 @@ from .params import Param, parse_param
 
 #: kinds of :class:`Setting` whose check is :meth:`Setting.check`; "custom" fields are
 #: checked by the config itself
-KINDS = ("param", "float", "int", "bool", "custom")
+KINDS = ("param", "float", "int", "bool", "path", "custom")
 
 
 @dataclass(frozen=True)
@@ -31,8 +31,9 @@ class Setting:
     """A config field's declaration (see the module docstring).
 
     ``kind``: "param" (a :class:`Param`: a value, range or list drawn per image), "float",
-    "int", "bool" or "custom"; ``lo``/``hi``: inclusive bounds; ``unit``: shown after
-    numbers; ``integer``: whole-number params; ``metavar``, ``help``: the command line's."""
+    "int", "bool", "path" (a file or folder path, or None) or "custom"; ``lo``/``hi``:
+    inclusive bounds; ``unit``: shown after numbers; ``integer``: whole-number params;
+    ``metavar``, ``help``: the command line's."""
 
     kind: str
     help: str
@@ -56,6 +57,8 @@ class Setting:
             if not isinstance(value, bool):
                 raise SettingError(name, "{name} must be true or false")
             return value
+        if self.kind == "path" and value is not None:
+            return path_text(value, name)
         return value
 
 
@@ -114,6 +117,13 @@ def int_pair(v: Any, name: str) -> tuple[int, int]:
     if not (1 <= a <= 100_000 and 1 <= b <= 100_000):
         raise SettingError(name, f"{{name}} {a},{b} is out of range: use 1 to 100000 pixels")
     return a, b
+
+
+def path_text(v: Any, name: str) -> str:
+    """``v`` (text or a :class:`~pathlib.Path`) as path text; SettingError otherwise."""
+    if not isinstance(v, (str, Path)) or "\0" in str(v):
+        raise SettingError(name, f"{{name}} {v!r} must be a file or folder path")
+    return str(v)
 
 
 def names(v: Any, name: str) -> tuple:

@@ -1,0 +1,95 @@
+"""``python -m sdcomp.realism`` (``sdcomp realism``): the realism report of a generated
+dataset, against the targets and, given them, the user's real frames
+(:mod:`sdcomp.report.realism`).
+
+    sdcomp realism DIR [--real FRAMES [--real-labels F|DIR] [--real-gsd M | --real-fov DEG]]
+                       [--out DIR/realism] [--max-images 500] [--match-gsd] [--cnn]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..errors import run_cli
+from ..report.realism.markdown import row_text
+from ..report.realism.patches import METRICS
+from ..report.realism.report import MAX_IMAGES, realism_report
+from ..util.log import add_verbosity_flags, setup_logging
+from . import prog
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog=prog("realism"),
+        description="Realism report of a generated dataset: per-patch statistics of empty "
+                    "water (saturation, luminance, high-pass std, glint) with PASS/FAIL per "
+                    "target, luminance power spectra, histograms, crops of objects and water "
+                    "at one ground sampling distance and, with real frames, a real-vs-"
+                    "synthetic patch classifier whose cross-validated accuracy is the realism "
+                    "number (0.5 = indistinguishable).",
+        epilog="Writes OUT/report.md, report.json, spectrum.png, histograms.png, crops.png. "
+               "Definitions: docs/realism.md.")
+    p.add_argument("dataset", metavar="DIR", help="generated dataset folder (generate --out)")
+    p.add_argument("--real", metavar="FRAMES", help="real frames: a folder (or file) of photos "
+                   "and videos, or a folder with an images/ subfolder (default: none: "
+                   "statistics against the targets only)")
+    p.add_argument("--real-labels", metavar="LABELS", help="COCO json file or YOLO labels "
+                   "folder of the real frames: boxes kept out of empty water; a COCO file's "
+                   "meta (altitude, gimbal pitch) gives the GSD with --real-fov (default: "
+                   "none: every patch counts as water)")
+    p.add_argument("--real-gsd", metavar="M", type=float, help="metres per pixel of every "
+                   "real frame (default: from the COCO meta and --real-fov, else unknown)")
+    p.add_argument("--real-fov", metavar="DEG", type=float, help="diagonal field of view of "
+                   "the real frames as stored, degrees: with the COCO meta it gives each "
+                   "frame's GSD and horizon (default: unknown)")
+    p.add_argument("--match-gsd", action="store_true", help="resample real frames of known "
+                   "GSD to the generated set's median GSD before measuring (default: each "
+                   "frame at its own resolution)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: DIR/realism)")
+    p.add_argument("--max-images", metavar="N", type=int, default=MAX_IMAGES,
+                   help="at most N images of each set, a seeded random choice (default: "
+                        "%(default)s)")
+    p.add_argument("--seed", metavar="S", type=int, default=0, help="seed of the image "
+                   "choice, patch subsampling and folds (default: %(default)s)")
+    p.add_argument("--folds", metavar="K", type=int, default=5, help="cross-validation folds, "
+                   "split by image (default: %(default)s)")
+    p.add_argument("--cnn", action="store_true", help="also a tiny CNN classifier (needs "
+                   "torch; about a minute more) (default: off)")
+    p.add_argument("--exclude-clutter", action="store_true", help="also keep the unannotated "
+                   "floating clutter (boats, buoys, logs, foam) out of empty water (default: "
+                   "off: only annotated objects are)")
+    add_verbosity_flags(p)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    log = setup_logging(args.quiet, args.verbose)
+    r = realism_report(args.dataset, args.real, args.out, args.real_labels, args.real_gsd,
+                       args.real_fov, args.max_images, args.seed, args.folds, args.cnn,
+                       args.exclude_clutter, args.match_gsd, log=log.debug)
+    gs = r["summary"]["generated"]
+    log.info("generated: " + "; ".join(f"{m} {row_text(gs[m])}" for m in METRICS))
+    if r["summary"]["real"]:
+        rs = r["summary"]["real"]
+        log.info("real:      " + "; ".join(f"{m} {row_text(rs[m])}" for m in METRICS))
+    c = r["classifier"]
+    if c and "accuracy" in c:
+        lo, hi = c["ci95_images"]
+        log.info(f"real-vs-synthetic classifier accuracy {c['accuracy']:.3f} (image CI "
+                 f"{lo:.3f}-{hi:.3f}; 0.5 = indistinguishable)")
+    for t in r["targets"]:
+        if t["ok"] is not None:
+            log.info(f"{'PASS' if t['ok'] else 'FAIL'}  {t['target']}: {t['value']:.4g}")
+    judged = [t for t in r["targets"] if t["ok"] is not None]
+    out = Path(args.out) if args.out else Path(args.dataset) / "realism"
+    log.info(f"targets: {sum(t['ok'] for t in judged)}/{len(judged)} pass; report: "
+             f"{out / 'report.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

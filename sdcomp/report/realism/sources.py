@@ -1,0 +1,245 @@
+"""The two kinds of image sets the realism report reads: a generated dataset and real frames.
+
+A generated dataset is read through :func:`sdcomp.io.layout.load_dataset` (the one reader):
+images, 16-bit instance masks, boxes and each image's ``meta`` (its GSD, altitude and gimbal
+pitch). Sky and land are kept out of "empty water" by :class:`SeaOracle`.
+
+Real frames are the user's footage (:mod:`sdcomp.render.footage`): a folder (or file) of
+photos and videos, every video frame a candidate, optionally with labels (a COCO json file or
+a YOLO labels folder) whose boxes are kept out of empty water. A frame a COCO file does not
+list is skipped (its objects are unknown); a frame without a YOLO label file has none.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ...errors import UserError
+from ...io.layout import load_dataset
+from ...render.footage import Source, VideoReader, list_sources, read_source
+from ...render.footage_labels import Labels, read_labels
+from ...scene.camera import CameraModel, horizon_row
+from .sea import ALTITUDE_KEY, GSD_KEY, PITCH_KEY, SeaOracle, num
+
+REAL_SKY_MARGIN = 0.05  #: fraction of the height kept clear below a real frame's horizon
+
+
+@dataclass
+class Frame:
+    """One image of a set, not yet read.
+
+    Attributes:
+        path: the image (or video) file; ``source`` the real frame it is (None: generated).
+        group: index of the image within its set (cross-validation folds split by it).
+        boxes: (x, y, w, h) pixel boxes to keep clear (objects), or None when unknown.
+        mask_path: the 16-bit instance-id PNG (generated sets), or None.
+        meta: the image's metadata (COCO ``meta``), possibly empty.
+        camera: the image's COCO ``camera`` record (intrinsics ``K`` with the lens's zoom,
+            ``dist_coeffs``, pose), possibly empty.
+        gsd: metres per pixel at the image centre, or None when unknown.
+        gsd_source: where ``gsd`` comes from: "meta", "camera", "user" or "unknown".
+        valid: callable (H, W) -> ((H, W) bool valid-pixel mask or None for all, how) or None.
+    """
+
+    path: Path
+    group: int
+    boxes: list | None = None
+    mask_path: Path | None = None
+    meta: dict = field(default_factory=dict)
+    gsd: float | None = None
+    gsd_source: str = "unknown"
+    valid: Callable | None = None
+    source: Source | None = None
+    camera: dict = field(default_factory=dict)
+
+
+@dataclass
+class FrameSet:
+    """The frames of a set, its kind ("generated" or "real"), its folder and notes (one-line
+    facts about how it was read, for the report)."""
+
+    kind: str
+    folder: Path
+    frames: list
+    notes: list = field(default_factory=list)
+
+
+@dataclass
+class Loaded:
+    """A frame read into memory: ``rgb`` (H, W, 3) uint8, ``instances`` (H, W) uint16 or None,
+    ``valid`` (H, W) bool or None (all valid), ``valid_how`` how that mask was made."""
+
+    rgb: np.ndarray
+    instances: np.ndarray | None
+    valid: np.ndarray | None
+    valid_how: str
+
+
+_VIDEOS = VideoReader("--real")
+
+
+def read_rgb(path: Path) -> np.ndarray | None:
+    """(H, W, 3) uint8 RGB of an image file (grey and alpha are converted), None if unreadable."""
+    data = np.fromfile(str(path), np.uint8) if path.is_file() else None
+    if data is None or data.size == 0:
+        return None
+    bgr = cv2.imdecode(data, cv2.IMREAD_COLOR)
+    return None if bgr is None else cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def read_mask(path: Path) -> np.ndarray | None:
+    """(H, W) uint16 instance ids of a 16-bit PNG, None if missing or unreadable."""
+    m = cv2.imread(str(path), cv2.IMREAD_UNCHANGED) if path.is_file() else None
+    if m is None:
+        return None
+    return (m[..., 0] if m.ndim == 3 else m).astype(np.uint16, copy=False)
+
+
+def load_frame(frame: Frame) -> Loaded | None:
+    """Read a :class:`Frame`; None when its image cannot be read."""
+    if frame.source is not None:
+        try:
+            rgb: np.ndarray | None = read_source(frame.source, _VIDEOS, "--real")
+        except UserError:
+            rgb = None
+    else:
+        rgb = read_rgb(frame.path)
+    if rgb is None:
+        return None
+    inst = read_mask(frame.mask_path) if frame.mask_path is not None else None
+    if inst is not None and inst.shape != rgb.shape[:2]:
+        inst = None
+    valid, how = (None, "unknown: all pixels accepted")
+    if frame.valid is not None:
+        valid, how = frame.valid(rgb.shape[:2])
+    return Loaded(rgb, inst, valid, how)
+
+
+def subsample(frames: list, max_images: int | None, seed: int) -> list:
+    """At most ``max_images`` of ``frames`` (a seeded random choice, kept in order), each
+    numbered by its position (:attr:`Frame.group`)."""
+    if max_images is not None and len(frames) > max_images:
+        pick = np.sort(np.random.default_rng(seed).choice(len(frames), max_images,
+                                                           replace=False))
+        frames = [frames[i] for i in pick]
+    for i, f in enumerate(frames):
+        f.group = i
+    return frames
+
+
+# --------------------------------------------------------------------------- generated sets
+
+def load_generated(folder: str | Path, max_images: int | None = None, seed: int = 0,
+                   exclude_clutter: bool = False) -> FrameSet:
+    """The frames of a generated dataset folder (at most ``max_images``, a seeded choice).
+
+    UserError for a missing folder, a folder that is not a dataset, unreadable COCO files,
+    or no images."""
+    data = load_dataset(folder)
+    layout = data.layout
+    oracle = SeaOracle(layout.run_config(), exclude_clutter)
+    frames = []
+    for e in data.entries:
+        img = e.image
+        path = layout.images / img["file_name"]
+        if not path.is_file():
+            continue
+        meta: dict = img["meta"] if isinstance(img.get("meta"), dict) else {}
+        mask = img.get("mask_file") or str(Path(img["file_name"]).with_suffix(".png"))
+        boxes = [a["bbox"] for a in e.annotations if isinstance(a.get("bbox"), (list, tuple))]
+        gsd = num(meta, GSD_KEY)
+        camera: dict = img["camera"] if isinstance(img.get("camera"), dict) else {}
+        index = int(img["id"])  # format 2: the image id is its index
+        frames.append(Frame(path, 0, boxes, layout.masks / mask, meta, gsd,
+                            "meta" if gsd else "unknown", oracle.bind(index, meta, camera),
+                            camera=camera))
+    if not frames:
+        raise UserError(f"{str(layout.root)!r} has no readable images listed in its "
+                        f"annotations; give the --out folder of a finished `sdcomp generate`")
+    n = len(frames)
+    frames = subsample(frames, max_images, seed)
+    notes = [f"{n} images listed, {len(frames)} used"]
+    if oracle.config is None:
+        notes.append("the run's config could not be read: land and clutter are not excluded "
+                     "from empty water, nor sky")
+    return FrameSet("generated", layout.root, frames, notes)
+
+
+# --------------------------------------------------------------------------- real frames
+
+def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | None = None,
+              fov: float | None = None, max_images: int | None = None, seed: int = 0
+              ) -> FrameSet:
+    """The real frames at ``path`` (photos and videos; at most ``max_images``, a seeded
+    choice).
+
+    Args:
+        labels: a COCO json file or YOLO labels folder: boxes kept clear; a COCO file's
+            ``meta`` (altitude, gimbal pitch) gives the GSD with ``fov``.
+        gsd: metres per pixel of every frame (overrides the meta).
+        fov: diagonal field of view of the frames as stored, degrees (for the GSD from meta
+            and the horizon of oblique frames).
+    UserError for a missing path, no frames, unreadable labels or bad values."""
+    if gsd is not None and not (math.isfinite(gsd) and 0 < gsd < 1000):
+        raise UserError(f"--real-gsd {gsd} is out of range: use metres per pixel > 0")
+    if fov is not None and not 1 < fov < 170:
+        raise UserError(f"--real-fov {fov} is out of range: use 1 to 170 degrees")
+    sources = list_sources(path, "--real")
+    lab: Labels | None = read_labels(labels, "--real-labels") if labels is not None else None
+    frames, unlisted = [], 0
+    for s in sources:
+        fl = lab.of(s.key) if lab is not None else None
+        if lab is not None and lab.kind == "coco" and fl is None:
+            unlisted += 1
+            continue
+        boxes = fl.pixels(s.width, s.height).tolist() if fl is not None else (
+            [] if lab is not None else None)
+        frames.append(Frame(s.path, 0, boxes, None, dict(fl.meta) if fl else {}, source=s))
+    if lab is not None and not frames:
+        raise UserError(f"--real-labels {labels}: none of the {len(sources)} frames of "
+                        f"{path} is listed in it (matched by file name without extension; "
+                        f"video frames: <video name>_<frame:06d>)")
+    frames = subsample(frames, max_images, seed)
+    for f in frames:
+        _real_geometry(f, gsd, fov)
+    notes = []
+    if unlisted:
+        notes.append(f"{unlisted} frames not listed in the COCO file were skipped")
+    if lab is None:
+        notes.append("no labels: every patch of the real frames counts as empty water")
+    notes.append(f"{len(frames)} frames used of {len(sources) - unlisted}; GSD known for "
+                 f"{sum(f.gsd is not None for f in frames)}")
+    return FrameSet("real", Path(path), frames, notes)
+
+
+def _real_geometry(frame: Frame, gsd: float | None, fov: float | None) -> None:
+    """Set a real frame's GSD (``gsd``, else its meta with a camera of ``fov``) and, for an
+    oblique frame of known pitch and ``fov``, its sky mask."""
+    s = frame.source
+    assert s is not None
+    alt, pitch = num(frame.meta, ALTITUDE_KEY), num(frame.meta, PITCH_KEY)
+    if gsd is not None:
+        frame.gsd, frame.gsd_source = float(gsd), "user"
+    if fov is None or pitch is None or not 0 < pitch <= 90:
+        return
+    model = CameraModel(s.width, s.height, fov, s.width, s.height)
+    if gsd is None and alt:
+        frame.gsd = alt / math.sin(math.radians(pitch)) / model.fx
+        frame.gsd_source = "camera"
+    if pitch < 90:
+        frame.valid = _real_sky(fov, pitch)
+
+
+def _real_sky(fov: float, pitch: float) -> Callable:
+    def valid(shape: tuple[int, int]):
+        h, w = shape
+        top = horizon_row(CameraModel(w, h, fov, w, h), pitch) + REAL_SKY_MARGIN * h
+        mask = np.repeat((np.arange(h) >= top)[:, None], w, axis=1)
+        return mask, "sky excluded (from pitch and --real-fov, 5 % margin)"
+    return valid
