@@ -223,3 +223,25 @@ def test_folder_of_written_frames_is_checked(tmp_path):
         Backgrounds(tmp_path / "empty")
     with pytest.raises(UserError, match="no such folder"):
         Backgrounds(tmp_path / "missing")
+
+
+def test_footage_is_not_recorded_by_a_second_camera_unless_asked(tmp_path):
+    """Over your own frames the default look is clean (they have been through a camera):
+    the camera stage runs no stage on a frame with no objects;
+    an explicit drone look still records it."""
+    from sdcomp.pipeline import Generator
+    from sdcomp.scene.config import GeneratorConfig
+
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    frame = _lake(0, [])
+    cv2.imwrite(str(folder / "a.png"), cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+    base = {"backgrounds": str(folder), "count": 0, "clutter": 0.0, "n": 1, "seed": 4}
+    auto = GeneratorConfig.from_mapping(base)
+    assert auto.look_preset == "clean"
+    drone = GeneratorConfig.from_mapping({**base, "look": "mavic2pro"})
+    assert drone.look_preset == "mavic2pro"
+    assert GeneratorConfig.from_mapping({"look": "auto"}).look_preset == "mavic2pro"
+    plain, looked = (Generator(c).render(0) for c in (auto, drone))
+    assert plain.camera["stages"] == [] and looked.camera["stages"]
+    assert np.abs(looked.image.astype(int) - plain.image).mean() > 1.0

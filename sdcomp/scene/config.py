@@ -172,7 +172,8 @@ class GeneratorConfig:
     # the drone camera's look
     look: str = setting("auto", "custom", "camera look (lens, exposure, colour, noise, "
                         "sharpening, compression, each drawn per image): mavic2pro, "
-                        "phantom4pro, zenmuse-x5, clean (none), or auto (that of --camera)",
+                        "phantom4pro, zenmuse-x5, clean (none), or auto (that of --camera; "
+                        "clean over --backgrounds)",
                         "NAME")
     recording: str = setting("video", "custom", "what the camera records: video (4K H.264/"
                              "H.265 frames) or photo (full-resolution JPEG)", "video|photo")
@@ -267,9 +268,12 @@ class GeneratorConfig:
     @property
     def look_preset(self) -> str:
         """The camera look's preset: ``look``, or for ``auto`` the camera's (mavic2pro for a
-        custom camera)."""
+        custom camera), and ``clean`` over your own footage (``backgrounds``: it has been
+        through a camera already)."""
         if self.look != "auto":
             return self.look
+        if self.backgrounds:
+            return "clean"
         body = self.camera.removesuffix("-video")
         return body if body in LOOK_PRESETS else "mavic2pro"
 
