@@ -202,6 +202,76 @@ def test_foam_never_changes_the_masks(gen):
         assert np.array_equal(a.weight, b.weight) and np.array_equal(a.alpha, b.alpha)
 
 
+# --------------------------------------------------------------------------- wakes
+
+def test_wake_strength_grows_with_speed_and_arms_need_way():
+    from sdcomp.render.wake import ARM_SPEED, SPEED_MIN, wake_strength
+
+    assert wake_strength(0.0) == (0.0, 0.0) and wake_strength(SPEED_MIN / 2) == (0.0, 0.0)
+    speeds = [0.5, 1.0, 2.0, 4.0, 8.0, 12.0]
+    cores = [wake_strength(v)[0] for v in speeds]
+    assert all(a <= b for a, b in zip(cores, cores[1:], strict=False)) and cores[0] > 0
+    assert wake_strength(ARM_SPEED * 0.9)[1] == 0.0 < wake_strength(ARM_SPEED * 1.5)[1]
+
+
+def test_wake_lies_behind_with_kelvin_arms_at_19_5_degrees():
+    """A 5 m boat at 8 m/s: the turbulent wake is behind it, nothing ahead; across the wake
+    far behind, the brightest water (the arms) lies where the Kelvin wedge's half-angle
+    asin(1/3) puts it from the bow."""
+    from sdcomp.render.wake import KELVIN_HALF_ANGLE, wake_cover
+
+    length, beam, res = 5.0, 2.0, 0.1
+    cover, u0, v0, r = wake_cover(length, beam, 8.0, res, (1,))
+    assert r == pytest.approx(res) and cover.dtype == np.float32
+    assert cover.min() >= 0.0 and cover.max() <= 1.0
+    h, w = cover.shape
+    u = np.arange(w) * r - u0
+    v = np.arange(h) * r - v0
+    ahead = cover[:, u < -length / 2 - 0.5]
+    behind = cover[np.abs(v) < beam / 2][:, (u > length) & (u < 3 * length)]
+    assert ahead.max() < 0.02 and behind.mean() > 0.2
+    assert KELVIN_HALF_ANGLE == pytest.approx(19.47, abs=0.01)
+    for dist in (15.0, 25.0):
+        col = int(np.argmin(np.abs(u - dist)))
+        side = cover[:, col].copy()
+        side[np.abs(v) < 2 * beam] = 0  # leave out the turbulent core
+        want = (dist + length / 2) * math.tan(math.radians(KELVIN_HALF_ANGLE))
+        assert abs(abs(v[int(np.argmax(side))]) - want) < 0.6
+    assert wake_cover(length, beam, 0.1, res, (1,)) is None
+
+
+def test_a_moving_object_leaves_a_wake_and_the_same_mask(gen):
+    """Under way, an object draws a wake on the water behind it: turned round, the wake is
+    on the other side of it; its layer's weights are the same as standing still."""
+    from sdcomp.render.composite import composite
+    from sdcomp.render.layers import build_layers
+    from sdcomp.render.lighting import lighting
+
+    water = _water("coastal", 0.3, wind=3.0)
+    light = _light(gen, water)
+    sprites = gen.compositor.assets.sprites
+
+    def draw(heading, speed):
+        s = _scene(gen, [replace(_rov(), heading=heading, speed=speed)], water)
+        image = np.full((gen.model.height, gen.model.width, 3), 60, np.uint8)
+        layers = build_layers(s, lighting(s, light), sprites, foam_onto=image)
+        composite(image, layers, False)
+        return image, layers[0]
+
+    centroids = []
+    for heading in (0.0, 180.0):
+        still, a = draw(heading, 0.0)
+        moving, b = draw(heading, 3.0)
+        assert np.array_equal(a.weight, b.weight) and np.array_equal(a.alpha, b.alpha)
+        changed = np.argwhere((moving != still).any(axis=2))
+        assert len(changed) > 100
+        x0, y0, x1, y1 = a.roi
+        centroids.append(changed.mean(axis=0) - ((y0 + y1) / 2, (x0 + x1) / 2))
+    # behind the object: on opposite sides for opposite headings, well away from it
+    assert float(centroids[0] @ centroids[1]) < 0
+    assert min(np.hypot(*c) for c in centroids) > 5
+
+
 def _scene(g: Generator, placements, water: WaterParams, pitch: float = 90.0):
     m = g.model
     pls = tuple(replace(p, asset=object_asset(g.config, p.category_id - 1))

@@ -32,6 +32,7 @@ from .submerge import (
     water_columns,
     waterline_level,
 )
+from .wake import place_wake, wake_cover
 from .water.optics import N_WATER
 
 RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
@@ -255,10 +256,11 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
 
 
 def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scene: Scene,
-                lit: Lighting, column: WaterColumn) -> tuple[Layer, FoamRing | None]:
+                lit: Lighting, column: WaterColumn) -> tuple[Layer, list[FoamRing]]:
     """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`, seen as ``view``
-    (:func:`sprite_view`) through the water ``column``, and the foam ring around its
-    waterline when it has one (:func:`foam_ring`)."""
+    (:func:`sprite_view`) through the water ``column``, and the foam it makes on the water:
+    the ring around its waterline (:func:`foam_ring`) and its wake when it moves
+    (:func:`wake_foam`)."""
     model = scene.model
     prepared = src.prepared(view.pose, view.level)
     height = prepared[3]
@@ -285,7 +287,9 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
     layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
                   warped[..., 3], warped[..., 4], offset, strength, blur, full)
-    return layer, foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column)
+    foam = [foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column),
+            wake_foam(i, pl, view, size_m, src.waterline, scene, lit, column)]
+    return layer, [f for f in foam if f is not None]
 
 
 def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
@@ -302,11 +306,43 @@ def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
     if placed is None:
         return None
     affine, roi = placed
+    return FoamRing(view.depth, cover, affine, roi, foam_colour(lit, column))
+
+
+def foam_colour(lit: Lighting, column: WaterColumn) -> tuple[float, ...]:
+    """sRGB levels (0..255, 3 floats) of foam on the water at an object: a diffuse white of
+    :data:`FOAM_ALBEDO` under the sun and sky there, at the image's exposure."""
     water = lit.water
     e = column.sun * max(float(lit.sun[2]), 0.0) + water.sky_irradiance
     lin = np.clip(e * (FOAM_ALBEDO / math.pi * water.gain), 0.0, 1.0)
-    srgb = linear_to_srgb(lin.astype(np.float32)) * np.float32(255.0)
-    return FoamRing(view.depth, cover, affine, roi, tuple(float(v) for v in srgb))
+    return tuple(float(v) for v in linear_to_srgb(lin.astype(np.float32)) * 255.0)
+
+
+def wake_foam(i: int, pl: Placement, view: SpriteView, size_m: float, waterline: float,
+              scene: Scene, lit: Lighting, column: WaterColumn) -> FoamRing | None:
+    """The wake of placement ``i`` moving at ``pl.speed`` m/s along its heading
+    (:func:`wake_cover`, hull about 1.4 x 0.7 ``size_m``), one raster pixel about one frame
+    pixel, placed on the water in the frame (``waterline``: metres from the body origin up
+    to its waterline); None when it has none or misses the frame."""
+    if pl.speed <= 0:
+        return None
+    track = view.rot[:2, 0] / max(float(np.hypot(*view.rot[:2, 0])), 1e-9)
+    jac = view.jac[:, :2]
+    px_per_m = max(float(np.hypot(*(jac @ track))), float(np.hypot(*(jac @ track[::-1]))))
+    made = wake_cover(1.4 * size_m, 0.7 * size_m, pl.speed, 1.0 / max(px_per_m, 1e-6),
+                      (scene.water.seed, i, 1))
+    if made is None:
+        return None
+    cover, u0, v0, res = made
+    # the object's centre on the water: the body origin raised to the surface
+    lift = waterline * view.rot[:, 2] + np.array([0.0, 0.0, pl.draft])
+    centre = np.asarray(view.centre) + view.jac @ lift
+    placed = place_wake(cover.shape, u0, v0, res, track, jac, centre, scene.model.width,
+                        scene.model.height)
+    if placed is None:
+        return None
+    affine, roi = placed
+    return FoamRing(view.depth, cover, affine, roi, foam_colour(lit, column))
 
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource],
@@ -331,7 +367,7 @@ def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource
     made = [make_layers(i, pl, src, view, scene, lit, column)
             for (i, pl, src, view), column in zip(seen, columns, strict=True)]
     if foam_onto is not None:
-        rings = sorted((ring for _, ring in made if ring is not None), key=lambda r: -r.depth)
+        rings = sorted((ring for _, foam in made for ring in foam), key=lambda r: -r.depth)
         for ring in rings:
             draw_ring(foam_onto, ring)
     layers = [layer for layer, _ in made]

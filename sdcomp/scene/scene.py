@@ -33,8 +33,9 @@ class Role(enum.Enum):
 class Placement:
     """One floating object: which asset (its sprite key), its role, its COCO category (0 for
     clutter), where its waterline centre meets the sea (x, y metres), its heading, wave tilt
-    (roll, pitch degrees), ``draft`` (metres below its natural waterline; negative: higher)
-    and ``tint`` (albedo gain per channel)."""
+    (roll, pitch degrees), ``draft`` (metres below its natural waterline; negative: higher),
+    ``tint`` (albedo gain per channel) and ``speed`` (m/s through the water along its
+    heading: it leaves a wake)."""
 
     role: Role
     asset: str
@@ -46,6 +47,7 @@ class Placement:
     pitch: float
     draft: float
     tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    speed: float = 0.0
 
 
 @dataclass(frozen=True)
