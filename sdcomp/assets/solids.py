@@ -24,7 +24,7 @@ from .mesh import ColoredMesh, centred
 
 RGB = tuple[int, int, int]
 Part = tuple[m3.Manifold, RGB]
-Vec = Sequence[float]
+Vec = Sequence[float] | np.ndarray  # a point or vector, metres
 SEGMENTS = 48  # circular segments for large round parts
 SEGMENTS_SMALL = 24  # ... for small ones
 
@@ -80,7 +80,7 @@ def frame_from_z(axis: np.ndarray) -> np.ndarray:
     return np.stack([u, v, w], axis=1)
 
 
-def place(manifold: m3.Manifold, rotation: np.ndarray, origin: Vec | np.ndarray
+def place(manifold: m3.Manifold, rotation: np.ndarray, origin: Vec
           ) -> m3.Manifold:
     """``manifold`` rotated by the (3, 3) matrix ``rotation``, then moved to ``origin``."""
     mat = np.concatenate([np.asarray(rotation, float), np.asarray(origin, float)[:, None]], 1)
