@@ -51,6 +51,16 @@ def _large_put(key: tuple, value: Any) -> None:
         _large_bytes[0] -= _nbytes(old)
 
 
+def mip_levels(size: int) -> int:
+    """The finest-to-coarsest level count of ``size`` px sprites, minus one: levels halve
+    exactly (level L is ``size >> L`` pixels, each of ``2**L`` atlas pixels) down to 2 px, so
+    a size with an odd factor above 3 (a 144 px atlas: 9 px at level 4) stops there."""
+    level = 0
+    while size % (2 << level) == 0 and size >> (level + 1) >= 2:
+        level += 1
+    return level
+
+
 class SpriteSource:
     """Sprites of one mesh, by pose and mip level (see the module docstring)."""
 
@@ -63,7 +73,7 @@ class SpriteSource:
         poses = atlas.poses
         self.directions = view_direction(poses[:, 0], poses[:, 1])  # (P, 3) body frame
         self.bases = np.stack([view_basis(o, a) for o, a in poses[:, :2]])  # (P, 3, 3)
-        self.max_level = max(0, int(np.log2(self.size)) - 1)
+        self.max_level = mip_levels(self.size)
         # (pose, level): level array; (pose, level, "p"): prepared arrays (levels >= 2; the
         # larger ones are in the shared cache under this source's token)
         self._small: dict[tuple, Any] = {}
