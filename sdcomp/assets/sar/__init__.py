@@ -21,8 +21,10 @@ from __future__ import annotations
 import re
 from types import ModuleType
 
+import numpy as np
+
 from ...errors import UserError
-from ..mesh import ColoredMesh
+from ..mesh import ColoredMesh, centred
 from . import boat, buoy, jetski, lifesaving, swimmer
 from .common import rng_for
 
@@ -87,3 +89,21 @@ def sub_types(kind: str) -> tuple[str, ...]:
     """The sub-types of ``kind`` (e.g. a boat's motorboat, rib, sailboat, ...)."""
     _check(kind, 0)
     return tuple(_MODULES[kind].SUB_TYPES)
+
+
+def lineup(kind: str, gap: float = 0.3) -> ColoredMesh:
+    """Every variant of ``kind`` side by side in one mesh named ``kind``, for looking at
+    them together (``python -m sdcomp.mesh export swimmer swimmers.glb``): variant 0 first,
+    each next one ``gap`` times the widest variant's width further to starboard (-y),
+    waterlines at z = 0; metres, x forward, centred on the bounding box."""
+    meshes = [build(kind, v) for v in range(VARIANTS[kind])]
+    step = (1 + gap) * max(float(m.extents[1]) for m in meshes)
+    verts, faces, colours, offset = [], [], [], 0
+    for i, m in enumerate(meshes):
+        verts.append(m.vertices + [0.0, -i * step, -m.waterline])
+        faces.append(m.faces + offset)
+        colours.append(m.face_colors)
+        offset += len(m.vertices)
+    v, wl = centred(np.concatenate(verts), 0.0)
+    return ColoredMesh(v, np.concatenate(faces), np.concatenate(colours), wl, kind,
+                       closed=True)
