@@ -14,16 +14,16 @@ i): any process, any order, same pixels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from .annotate import AnnotationRule, Frame, image_meta, instance_map, object_annotations
 from .assets import clutter as clutter_meshes
-from .assets.library import MeshSpec
+from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
-from .atlas.poses import PoseGrid
+from .atlas.builtin import CLUTTER_ATLAS, object_atlas
 from .atlas.sprites import SpriteSource
 from .atlas.store import AtlasConfig, ensure_atlas
 from .errors import UserError
@@ -31,13 +31,11 @@ from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds
 from .render.textures import Textures
 from .scene.config import GeneratorConfig
-from .scene.sample import clutter_asset, object_asset, sample_scene
+from .scene.objects import clutter_assets, clutter_mesh_name, object_assets, object_kind
+from .scene.sample import sample_scene
 from .scene.scene import FeatureSeeds, Scene
 
 DEFAULT_SPRITES = "sprites"
-#: atlas parameters of clutter meshes: smaller sprites, a coarser pose grid
-CLUTTER_ATLAS = AtlasConfig(size=64, supersample=3,
-                            grid=PoseGrid(off_nadir_step=15.0, max_error=10.0))
 WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
 
 
@@ -68,23 +66,28 @@ class Sample:
 
 class Generator:
     """Renders the images of ``config``. Sprite atlases are loaded from ``sprites_dir`` or
-    built there first (the BlueROV2's takes a few seconds, once)."""
+    built there first, once: one per mesh, and each variant of a search-and-rescue kind is a
+    mesh (the BlueROV2's takes a few seconds; all five kinds' 52 about a minute or two on
+    2 cores; see :mod:`sdcomp.atlas.builtin`)."""
 
     def __init__(self, config: GeneratorConfig, sprites_dir: str | Path = DEFAULT_SPRITES,
                  progress: bool | None = None, build_workers: int | None = None):
         self.config = config
         self.model = config.camera_model()
         sprites: dict[str, SpriteSource] = {}
-        for k, o in enumerate(config.objects):
-            key = object_asset(config, k)
-            if key not in sprites:
-                sprites[key] = _sprites(_load_object(o.mesh), AtlasConfig(), sprites_dir,
-                                        progress, build_workers, rebuild=False)
+        for o in config.objects:
+            for key in object_assets(o.mesh):
+                if key not in sprites:
+                    mesh = _load_object(key)
+                    sprites[key] = _sprites(mesh, object_atlas(mesh, object_kind(key)),
+                                            sprites_dir, progress, build_workers,
+                                            rebuild=is_builtin(key))
         if config.clutter > 0:
             for kind in config.clutter_kinds:
-                sprites[clutter_asset(kind)] = _sprites(
-                    clutter_meshes.build(kind), CLUTTER_ATLAS, sprites_dir, progress,
-                    build_workers, rebuild=True)
+                for key in clutter_assets(kind):
+                    mesh = _clutter_mesh(key)
+                    sprites[key] = _sprites(mesh, CLUTTER_ATLAS, sprites_dir, progress,
+                                            build_workers, rebuild=kind == mesh.name)
         photos = Backgrounds(config.backgrounds) if config.backgrounds else None
         assets = RenderAssets(sprites, Textures.build(config.seed, config.rocks), photos)
         self.compositor = Compositor(assets)
@@ -140,6 +143,15 @@ def _load_object(source: str) -> ColoredMesh:
         return MeshSpec(source).load()
     except UserError as e:
         raise UserError(f"--object {source}: {e}") from None
+
+
+def _clutter_mesh(key: str) -> ColoredMesh:
+    """The mesh of a clutter asset key, named after its own atlas (a variant's clutter
+    atlas is smaller than its object atlas, so they must not share a file name)."""
+    name = clutter_mesh_name(key)
+    if name in clutter_meshes.KINDS:
+        return clutter_meshes.build(name)
+    return replace(build_builtin(name.removeprefix("clutter-")), name=name)
 
 
 _CACHED: dict[tuple[str, str], Generator] = {}  # per process: see cached_generator

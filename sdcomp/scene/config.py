@@ -14,16 +14,24 @@ Precedence: defaults < ``--preset`` < ``--config FILE`` < flags on the command l
 from __future__ import annotations
 
 import difflib
+import math
 import tomllib
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ..assets.clutter import KINDS as CLUTTER_KINDS
 from ..errors import SettingError, UserError
 from .camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .camera import PRESETS as CAMERA_PRESETS
+from .objects import (
+    CLUTTER_KINDS,
+    DEFAULT_CLUTTER_KINDS,
+    SUPERCATEGORIES,
+    object_kind,
+    resolve_clutter_kinds,
+)
 from .params import Param
+from .presets import PRESETS, preset
 from .settings import check_float, int_pair, names, setting, setting_of, toml_value
 from .water import WATER_COLORS, parse_water
 
@@ -33,17 +41,34 @@ LABEL_FORMATS = ("coco", "yolo")
 MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 digits)
 
 
+def _positive(v: Any) -> bool:
+    """Whether ``v`` (a number or its text) is a finite number above 0."""
+    try:
+        return 0.0 < float(v) < math.inf
+    except ValueError:
+        return False
+
+
 @dataclass(frozen=True)
 class ObjectSpec:
-    """An object of interest: a built-in mesh name or a mesh file, and its COCO category."""
+    """An object of interest: a built-in mesh or kind name (a kind stands for all its
+    variants, :mod:`sdcomp.scene.objects`) or a mesh file, its COCO category, and its
+    ``weight``: how often it is drawn relative to the other objects (class proportions)."""
 
     mesh: str = "bluerov2"
     category: str = ""
+    weight: float = 1.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
             raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
-                                         "bluerov2-heavy) or a mesh file path")
+                                         "bluerov2-heavy, swimmer, boat, jetski, "
+                                         "life_saving_appliances, buoy) or a mesh file path")
+        w = self.weight
+        if isinstance(w, bool) or not isinstance(w, (int, float, str)) or not _positive(w):
+            raise SettingError("weight", f"{{name}} {w!r} must be a positive number (how "
+                                         f"often this object is drawn relative to the others)")
+        object.__setattr__(self, "weight", float(w))
         if not self.category:
             object.__setattr__(self, "category", Path(self.mesh).stem if Path(
                 self.mesh).suffix else self.mesh)
@@ -119,8 +144,9 @@ class GeneratorConfig:
     # objects of interest
     objects: tuple[ObjectSpec, ...] = setting(
         (ObjectSpec("bluerov2", "bluerov2"),), "custom", "object of interest: bluerov2, "
-        "bluerov2-heavy or a mesh file (repeat for several; each its own COCO category)",
-        "MESH")
+        "bluerov2-heavy, a search-and-rescue kind (swimmer, boat, jetski, "
+        "life_saving_appliances, buoy: all its variants) or a mesh file (repeat for several; "
+        "each its own COCO category)", "MESH")
     count: Param = setting("1-3", "param", "objects of interest per image (0 allowed: empty "
                            "images)", "K", 0.0, float(MAX_INSTANCES), "objects", True)
     draft: Param = setting("0-0.05", "param", "how far objects sink below their natural "
@@ -131,8 +157,9 @@ class GeneratorConfig:
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")
-    clutter_kinds: tuple[str, ...] = setting(CLUTTER_KINDS, "custom", "clutter kinds to use: "
-                                             f"{', '.join(CLUTTER_KINDS)}", "KIND")
+    clutter_kinds: tuple[str, ...] = setting(DEFAULT_CLUTTER_KINDS, "custom", "clutter kinds "
+                                             f"to use: {', '.join(CLUTTER_KINDS)} (the default "
+                                             "drops kinds that are objects)", "KIND")
     rocks: float = setting(0.35, "float", "fraction of the sea floor covered by rocks and "
                            "debris (0 = none)", "F", 0.0, 1.0)
     shore: float = setting(0.15, "float", "probability of a shoreline with land at a frame "
@@ -206,11 +233,7 @@ class GeneratorConfig:
                                            f"{cats}")
         self._put("objects", tuple(specs))
         kinds = names(self.clutter_kinds, "clutter_kinds")
-        for k in kinds:
-            if k not in CLUTTER_KINDS:
-                raise SettingError("clutter_kinds", f"{{name}} {k!r} is unknown; use some of "
-                                                    f"{', '.join(CLUTTER_KINDS)}")
-        self._put("clutter_kinds", tuple(dict.fromkeys(kinds)))
+        self._put("clutter_kinds", resolve_clutter_kinds(kinds, [s.mesh for s in specs]))
 
     # ----------------------------------------------------------------- derived
     def camera_model(self) -> CameraModel:
@@ -224,8 +247,10 @@ class GeneratorConfig:
 
     @property
     def categories(self) -> list[dict]:
-        """COCO categories, ids from 1 in the order of ``objects``."""
-        return [{"id": i + 1, "name": o.category, "supercategory": "object"}
+        """COCO categories, ids from 1 in the order of ``objects`` (supercategories as
+        SeaDronesSee's for its kinds, else "object")."""
+        return [{"id": i + 1, "name": o.category,
+                 "supercategory": SUPERCATEGORIES.get(object_kind(o.mesh) or "", "object")}
                 for i, o in enumerate(self.objects)]
 
     # ----------------------------------------------------------------- (de)serialise
@@ -236,8 +261,9 @@ class GeneratorConfig:
             v = getattr(self, f.name)
             if isinstance(v, Param):
                 v = v.to_json()
-            elif f.name == "objects":
-                v = [{"mesh": o.mesh, "category": o.category} for o in v]
+            elif f.name == "objects":  # weight only where it is not 1 (as before weights)
+                v = [{"mesh": o.mesh, "category": o.category}
+                     | ({"weight": o.weight} if o.weight != 1.0 else {}) for o in v]
             elif isinstance(v, tuple):
                 v = list(v)
             out[f.name] = v
@@ -280,10 +306,10 @@ def _object_spec(o: Any) -> ObjectSpec:
     if isinstance(o, str):
         return ObjectSpec(o)
     if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category"}
+        unknown = set(o) - {"mesh", "category", "weight"}
         if unknown:
             raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh and category")
+                            f"use mesh, category and weight")
         return ObjectSpec(**o)
     if not isinstance(o, ObjectSpec):
         raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
@@ -316,30 +342,6 @@ def _water_text(w: Any) -> str:
                                ) from None
     parse_water(str(w))  # raises UserError for an unknown name or bad RGB
     return str(w)
-
-
-# --------------------------------------------------------------------------- presets
-
-def _paper(**kw: Any) -> dict:
-    # the paper's datasets: one BlueROV2 per image, 416 x 416
-    return {"objects": [{"mesh": "bluerov2", "category": "bluerov2"}], "count": 1,
-            "width": 416, "height": 416, **kw}
-
-
-#: named presets: field values applied over the defaults
-PRESETS: dict[str, dict] = {
-    **{f"paper-alt{a}": _paper(water=["brown"], altitude=a) for a in (10, 20, 30, 40, 50)},
-    "paper-brown": _paper(water=["brown"], altitude=10),
-    "paper-blue": _paper(water=["blue"], altitude=10),
-    "paper-green": _paper(water=["green"], altitude=10),
-}
-
-
-def preset(name: str) -> dict:
-    """The field values of preset ``name``; UserError naming the presets otherwise."""
-    if name not in PRESETS:
-        raise UserError(f"--preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
-    return dict(PRESETS[name])
 
 
 def load_toml(path: str | Path) -> dict:

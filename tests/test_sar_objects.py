@@ -1,0 +1,143 @@
+"""Search-and-rescue kinds as objects and clutter: the config (weights, categories, clutter
+kinds that are objects), the scenes drawn from it (variants, shades, proportions), and that
+configs of one-mesh objects draw the scenes they drew before these kinds existed."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sdcomp import GeneratorConfig
+from sdcomp.assets import sar
+from sdcomp.errors import SettingError, UserError
+from sdcomp.scene.config import ObjectSpec
+from sdcomp.scene.objects import (
+    CLUTTER_KINDS,
+    DEFAULT_CLUTTER_KINDS,
+    clutter_assets,
+    clutter_mesh_name,
+    object_assets,
+)
+from sdcomp.scene.presets import SDS_CLASSES, preset
+from sdcomp.scene.sample import VARIANT_TINT, sample_scene
+from sdcomp.scene.scene import Role
+
+
+def _placements(config: GeneratorConfig, n: int, role: Role = Role.OBJECT) -> list:
+    return [p for i in range(n) for p in sample_scene(config, i).placements if p.role is role]
+
+
+def test_asset_keys_of_kinds_variants_meshes_and_clutter():
+    assert object_assets("swimmer") == sar.variant_names("swimmer")
+    assert object_assets("boat-03") == ("boat-03",)
+    assert object_assets("bluerov2") == ("bluerov2",)
+    assert object_assets("my/boat.stl") == ("my/boat.stl",)
+    assert clutter_assets("buoy") == tuple(f"clutter:buoy-{v:02d}" for v in range(10))
+    assert clutter_assets("log") == ("clutter:log",)
+    # a variant's clutter atlas has its own file name, beside its object atlas
+    assert clutter_mesh_name("clutter:boat-03") == "clutter-boat-03"
+    assert clutter_mesh_name("clutter:foam") == "foam"
+    assert set(CLUTTER_KINDS) == set(DEFAULT_CLUTTER_KINDS) | set(sar.KINDS)
+
+
+def test_a_kind_object_is_each_of_its_variants_in_a_shade_of_its_own():
+    config = GeneratorConfig(objects=["jetski"], count=20, clutter=0, seed=2)
+    placed = _placements(config, 10)
+    assert {p.asset for p in placed} == set(sar.variant_names("jetski"))
+    lo, hi, jitter = VARIANT_TINT
+    tints = np.array([p.tint for p in placed])
+    assert np.all(tints >= lo * (1 - jitter)) and np.all(tints <= hi * (1 + jitter))
+    assert len({p.tint for p in placed}) == len(placed)  # every one its own
+    assert {p.category_id for p in placed} == {1}
+
+
+def test_weights_set_the_class_proportions():
+    config = GeneratorConfig(objects=[{"mesh": "swimmer", "weight": 3},
+                                      {"mesh": "buoy", "weight": 1}], count=40, clutter=0)
+    counts = Counter(p.category_id for p in _placements(config, 100))
+    share = counts[1] / (counts[1] + counts[2])
+    assert abs(share - 0.75) < 0.03, counts
+
+
+def test_equal_weights_draw_as_without_weights():
+    a = GeneratorConfig(objects=["bluerov2", "bluerov2-heavy"], count="1-5", seed=4)
+    b = replace(a, objects=(ObjectSpec("bluerov2", weight=2.5),
+                            ObjectSpec("bluerov2-heavy", weight=2.5)))
+    for i in range(20):
+        assert sample_scene(a, i) == sample_scene(b, i)
+
+
+def test_one_mesh_objects_draw_the_scenes_they_drew_before_kinds():
+    """(kind, asset, x, y, heading) of the first scene, recorded with sdcomp before the
+    search-and-rescue kinds (commit c79acb8): the BlueROV2's placements and the clutter's
+    places are the same draws; the clutter boat and buoy are now variants of those kinds,
+    chosen by the draw that chose the old ones' paint."""
+    before = [("object", "bluerov2", -0.992092, 5.746131, 131.586),
+              ("object", "bluerov2", 1.057251, -2.953413, 118.5278),
+              ("object", "bluerov2", 2.156978, -0.850109, 45.893),
+              ("clutter", "clutter:log", 10.144475, -1.364786, 288.9382),
+              ("clutter", "clutter:boat", 3.806317, -6.21241, 67.0878),
+              ("clutter", "clutter:log", 7.990547, 1.033157, 353.6292)]
+    now = sample_scene(GeneratorConfig(seed=5, count="2-4", clutter=2.0), 0).placements
+    assert len(now) == len(before)
+    for p, (role, asset, x, y, heading) in zip(now, before, strict=True):
+        assert p.role.value == role and p.asset.startswith(asset)
+        assert (round(p.x, 6), round(p.y, 6), round(p.heading, 4)) == (x, y, heading)
+
+
+def test_clutter_of_a_kind_is_its_variants_unshaded():
+    config = GeneratorConfig(clutter=6, clutter_kinds=["life_saving_appliances"], seed=1)
+    placed = _placements(config, 10, Role.CLUTTER)
+    assert {p.asset for p in placed} == set(clutter_assets("life_saving_appliances"))
+    assert {p.tint for p in placed} == {(1.0, 1.0, 1.0)}
+    assert {p.category_id for p in placed} == {0}
+
+
+def test_a_kind_is_never_object_and_clutter_in_one_run():
+    # the default clutter list drops the kinds that are objects (a variant counts)
+    assert GeneratorConfig(objects=["boat"]).clutter_kinds == ("buoy", "log", "foam")
+    assert GeneratorConfig(objects=["buoy-03", "boat"]).clutter_kinds == ("log", "foam")
+    assert GeneratorConfig().clutter_kinds == DEFAULT_CLUTTER_KINDS
+    # a list the user gives that names one is refused, saying what to write instead
+    with pytest.raises(SettingError, match=r"clutter_kinds boat is also an --object, "
+                                           r"annotated there: leave it out \(e\.g\. "
+                                           r"clutter_kinds log\)"):
+        GeneratorConfig(objects=["boat-07"], clutter_kinds=["boat", "log"])
+    with pytest.raises(SettingError, match="or set --clutter 0"):
+        GeneratorConfig(objects=["swimmer"], clutter_kinds=["swimmer"])
+    with pytest.raises(SettingError, match="'rock' is unknown; use some of buoy, log"):
+        GeneratorConfig(clutter_kinds=["rock"])
+    # other kinds are fine, and a resolved config reads back to itself
+    c = GeneratorConfig(objects=["swimmer"], clutter_kinds=["jetski", "log"])
+    assert GeneratorConfig.from_mapping(c.to_dict()) == c
+    d = GeneratorConfig(objects=["boat"])
+    assert GeneratorConfig.from_mapping(d.to_dict()) == d
+
+
+def test_weights_are_checked_and_kept_in_config_files():
+    for bad in (0, -1, "x", float("nan"), float("inf"), True, None):
+        with pytest.raises(SettingError, match="weight .* must be a positive number"):
+            ObjectSpec("boat", weight=bad)
+    c = GeneratorConfig(objects=[{"mesh": "boat", "weight": 2}, "buoy"])
+    assert c.to_dict()["objects"] == [{"mesh": "boat", "category": "boat", "weight": 2.0},
+                                      {"mesh": "buoy", "category": "buoy"}]
+    assert GeneratorConfig.from_mapping({"objects": c.to_dict()["objects"]}) == c
+    with pytest.raises(UserError, match="unknown key 'colour'; use mesh, category and weight"):
+        GeneratorConfig(objects=[{"mesh": "boat", "colour": "red"}])
+
+
+def test_seadronessee_preset_has_its_categories_and_distributions():
+    c = GeneratorConfig.from_mapping(preset("seadronessee"))
+    assert [(k["id"], k["name"], k["supercategory"]) for k in c.categories] == [
+        (1, "swimmer", "person"), (2, "boat", "boat"), (3, "jetski", "boat"),
+        (4, "life_saving_appliances", "object"), (5, "buoy", "object")]
+    assert [o.weight for o in c.objects] == [float(n) for _, n in SDS_CLASSES]
+    assert (c.width, c.height) == (3840, 2160)
+    model = c.camera_model()
+    assert abs(model.fx - 2987) < 2 and model.fx == model.fy  # the Mavic 2 Pro's 4K video
+    assert min(c.pitch.values) == 15 and float(np.median(c.altitude.values)) == 36.5
+    assert set(c.clutter_kinds).isdisjoint(sar.KINDS)
+    assert GeneratorConfig().categories[0]["supercategory"] == "object"  # BlueROV2: as before
