@@ -138,6 +138,26 @@ def test_seadronessee_preset_has_its_categories_and_distributions():
     assert (c.width, c.height) == (3840, 2160)
     model = c.camera_model()
     assert abs(model.fx - 2987) < 2 and model.fx == model.fy  # the Mavic 2 Pro's 4K video
-    assert min(c.pitch.values) == 15 and float(np.median(c.altitude.values)) == 36.5
+    assert c.pair_pitch and len(c.altitude.values) == len(c.pitch.values) == 100
+    assert min(c.pitch.values) == 15 and float(np.median(c.altitude.values)) == 36
     assert set(c.clutter_kinds).isdisjoint(sar.KINDS)
     assert GeneratorConfig().categories[0]["supercategory"] == "object"  # BlueROV2: as before
+
+
+def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
+    pairs = [(10, 20), (30, 45), (60, 80), (30, 90)]
+    alts, pitches = [a for a, _ in pairs], [p for _, p in pairs]
+    paired = GeneratorConfig(altitude=alts, pitch=pitches, pair_pitch=True, seed=3)
+    apart = replace(paired, pair_pitch=False)
+    seen = set()
+    for i in range(60):
+        a, b = sample_scene(paired, i), sample_scene(apart, i)
+        seen.add((a.camera.altitude, a.camera.pitch))
+        assert a.camera.heading == b.camera.heading  # the draws after it stay in place
+        assert a.water_rgb == b.water_rgb and a.turbidity == b.turbidity
+    assert seen == set(pairs)
+    with pytest.raises(SettingError) as err:
+        GeneratorConfig(altitude=alts, pitch="20-90", pair_pitch=True)
+    assert err.value.as_flag() == ("--pair-pitch needs --altitude and --pitch as lists of one "
+                                   "length (they have 4 and 0 values): give both as lists, "
+                                   "or drop --pair-pitch")

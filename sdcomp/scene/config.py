@@ -119,6 +119,9 @@ class GeneratorConfig:
                            "down, down to 15", "DEG", *PITCH_RANGE, unit="degrees")
     heading: Param = setting("0-360", "param", "camera heading, degrees", "DEG", -360.0,
                              720.0, "degrees")
+    pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch with the k-th --altitude "
+                               "(two lists of one length: a joint distribution, e.g. from "
+                               "flight logs)")
     # water
     water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "water colours, "
                                      "one per image at random: brown, blue, green or R,G,B "
@@ -206,6 +209,11 @@ class GeneratorConfig:
         if self.sensor_px is not None:
             self._put("sensor_px", int_pair(self.sensor_px, "sensor_px"))
         self.camera_model()  # validates the combination
+        n_alt, n_pitch = len(self.altitude.choices), len(self.pitch.choices)
+        if self.pair_pitch and not n_alt == n_pitch > 0:
+            raise SettingError("pair_pitch", f"{{name}} needs --altitude and --pitch as lists "
+                                             f"of one length (they have {n_alt} and {n_pitch} "
+                                             f"values): give both as lists, or drop {{name}}")
 
     def _check_water(self) -> None:
         """Water colours and the user's photo folder."""

@@ -3,8 +3,8 @@
 - ``paper-alt10`` ... ``paper-alt50``, ``paper-brown``, ``paper-blue``, ``paper-green``:
   SeaDroneSim's datasets, one BlueROV2 per 416 x 416 image.
 - ``seadronessee``: SeaDronesSee's five classes (:mod:`sdcomp.assets.sar`) with its category
-  ids and names, class proportions, altitudes, gimbal pitches, objects per image and frame
-  size (see :data:`SEADRONESSEE`).
+  ids and names, class proportions, altitudes and gimbal pitches (as pairs), objects per
+  image and frame size, over open water (see :data:`SEADRONESSEE`).
 """
 
 from __future__ import annotations
@@ -23,17 +23,25 @@ def _paper(**kw: Any) -> dict:
 
 
 # SeaDronesSee object detection v2, validation split (1547 frames, 9630 boxes): annotations
-# per class; and, as 40 quantiles (at (i + 0.5) / 40) of its 1030 frames with flight
-# metadata (all 3840 x 2160), the height above take-off (metres), the gimbal pitch (degrees
-# below the horizon) and the boxes per frame. A list is drawn uniformly, so the quantiles
-# reproduce the distributions. Pitches under sdcomp's floor of 15 degrees (12 % of the
-# frames: 2-13 degrees, nearly level views) are drawn at 15.
+# per class; the (height above take-off m, gimbal pitch degrees below the horizon) of 100 of
+# its 1030 frames with flight metadata (all 3840 x 2160), every 10.3th in order of altitude
+# then pitch: the pairs keep the joint distribution (higher flights look more steeply
+# down, correlation 0.38), which sets how far away the objects are; drawn paired
+# (pair_pitch). Pitches under sdcomp's floor of 15 degrees (12 % of the frames: 0-14
+# degrees, nearly level views) are drawn at 15. And the boxes per frame, as 40 quantiles
+# (at (i + 0.5) / 40). A list is drawn uniformly, so the lists reproduce the distributions.
 SDS_CLASSES = (("swimmer", 6206), ("boat", 2214), ("jetski", 320),
                ("life_saving_appliances", 330), ("buoy", 560))
-SDS_ALTITUDE = (9, 9, 10, 10, 10, 17, 17, 17, 18, 19, 27, 29, 30, 30, 31, 32, 32, 34, 36, 36,
-                37, 37, 37, 37, 38, 38, 40, 47, 48, 48, 48, 50, 52, 52, 53, 60, 60, 96, 96, 96)
-SDS_PITCH = (2, 2, 8, 8, 13, 17, 19, 21, 25, 25, 27, 27, 28, 31, 34, 34, 35, 35, 36, 36, 36, 36,
-             36, 36, 37, 37, 38, 40, 40, 46, 46, 52, 55, 56, 61, 71, 71, 75, 78, 90)
+SDS_ALTITUDE = (6, 9, 9, 9, 9, 9, 10, 10, 10, 10, 10, 10, 15, 17, 17, 17, 17, 17, 17, 17, 18,
+                18, 18, 19, 20, 25, 28, 28, 29, 30, 30, 30, 30, 30, 31, 31, 32, 32, 32, 32, 32,
+                32, 32, 34, 34, 36, 36, 36, 36, 36, 36, 37, 37, 37, 37, 37, 37, 37, 37, 37, 38,
+                38, 38, 38, 38, 40, 41, 43, 44, 48, 48, 48, 48, 48, 48, 48, 48, 48, 50, 50, 52,
+                52, 52, 52, 52, 52, 56, 60, 60, 60, 60, 61, 61, 96, 96, 96, 96, 96, 96, 124)
+SDS_PITCH = (75, 45, 45, 52, 66, 59, 15, 14, 11, 18, 11, 16, 34, 34, 2, 2, 2, 2, 34, 28, 28, 28,
+             34, 34, 34, 55, 55, 61, 52, 55, 83, 37, 56, 37, 37, 37, 27, 27, 61, 27, 27, 27, 55,
+             55, 55, 25, 25, 25, 25, 25, 46, 36, 35, 35, 36, 36, 36, 35, 35, 36, 35, 39, 38, 38,
+             58, 34, 0, 78, 90, 36, 36, 36, 36, 36, 36, 36, 36, 36, 29, 29, 40, 40, 44, 46, 40,
+             46, 90, 8, 8, 8, 8, 40, 36, 71, 71, 71, 71, 71, 71, 77)
 SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7, 7, 7, 7, 8, 9,
              9, 9, 9, 10, 10, 11, 11, 12, 13, 13, 13, 14)
 # the DJI Mavic 2 Pro's 4K video (most of SeaDronesSee's metadata frames): 28 mm equivalent
@@ -41,16 +49,19 @@ SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7
 SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.0)), 1)
 
 #: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
-#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts; clutter
-#: only of what SeaDronesSee does not annotate (logs, foam)
+#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts; blue and
+#: green lake water (attenuation 0.2-1.3 per metre, as Lake Constance's: a swimmer's body
+#: shows faintly under the head); mostly open water; clutter only of what SeaDronesSee
+#: does not annotate (logs, foam)
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n} for k, n in SDS_CLASSES],
     "count": list(SDS_COUNT),
     "altitude": list(SDS_ALTITUDE),
-    "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH],
+    "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
     "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],
     "width": 3840, "height": 2160,
-    "clutter": 0.3, "clutter_kinds": ["log", "foam"],
+    "water": ["blue", "green"], "turbidity": "0.3-0.7",
+    "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
 }
 
 #: named presets: field values applied over the defaults

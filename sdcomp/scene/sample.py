@@ -44,8 +44,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     """Draw the scene of image ``index``; a pure function of (config, index)."""
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
-    pose = CameraPose(config.altitude.sample(rng), config.pitch.sample(rng),
-                      config.heading.sample(rng) % 360.0)
+    pose = CameraPose(*_altitude_pitch(rng, config), config.heading.sample(rng) % 360.0)
     water = config.water[min(int(rng.random() * len(config.water)), len(config.water) - 1)]
     name, rgb = parse_water(water)
     jitter = rng.uniform(0.92, 1.08, 3)
@@ -71,6 +70,19 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     return Scene(index, model, pose, name, (r, g, b), turbidity, attenuation(turbidity), wind,
                  swell, floor_depth, sun_el, sun_az, ambient, placements, shore, hills,
                  effects, seeds, config.shadows, config.whitecaps)
+
+
+def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig) -> tuple[float, float]:
+    """The camera's altitude (m) and pitch (degrees): drawn apart, or, with ``pair_pitch``,
+    the pitch at the altitude's place in its list (one draw picks the place as
+    :meth:`Param.sample` would; the pitch's draw is made and unused, so that the draws after
+    it stay where they are)."""
+    if not config.pair_pitch:
+        return config.altitude.sample(rng), config.pitch.sample(rng)
+    n = len(config.altitude.choices)
+    k = min(int(rng.random() * n), n - 1)
+    rng.random()
+    return config.altitude.choices[k], config.pitch.choices[k]
 
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
