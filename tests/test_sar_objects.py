@@ -161,3 +161,22 @@ def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
     assert err.value.as_flag() == ("--pair-pitch needs --altitude and --pitch as lists of one "
                                    "length (they have 4 and 0 values): give both as lists, "
                                    "or drop --pair-pitch")
+
+
+def test_no_variant_taller_than_half_the_altitude():
+    """A sailboat (mast 12-16 m above the water) is not drawn under a drone at 10 m: the
+    renderer would scale it for its middle, far too large; at 50 m it is."""
+    tall = {n for n in sar.variant_names("boat") if sar.top_above_water("boat",
+                                                                          int(n[-2:])) > 5}
+    assert tall == {"boat-02", "boat-08"}
+    low = GeneratorConfig(objects=["boat"], altitude=10, count=20, clutter=6,
+                          clutter_kinds=["jetski"], seed=3)
+    assets = {p.asset for p in _placements(low, 20)}
+    assert assets == set(sar.variant_names("boat")) - tall
+    assert tall <= {p.asset for p in _placements(replace(low, altitude=50), 20)}
+    clutter = replace(low, altitude=50, clutter_kinds=("boat",),
+                      objects=(ObjectSpec("jetski"),))
+    tall_clutter = {"clutter:" + n for n in tall}
+    assert tall_clutter <= {p.asset for p in _placements(clutter, 20, Role.CLUTTER)}
+    assert not tall_clutter & {p.asset for p in _placements(replace(clutter, altitude=10), 20,
+                                                            Role.CLUTTER)}

@@ -51,6 +51,20 @@ def clutter_mesh_name(asset: str) -> str:
     return "clutter-" + name if library.kind_of(name) else name
 
 
+def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
+    """The variants among ``assets`` (object or clutter keys of one kind) whose top stands
+    at most half the camera's ``altitude`` (m) above the water (all of them if none does):
+    a taller object, a sailboat's mast under a low drone, would be drawn at the scale of
+    its middle, far too large (the renderer linearises the perspective at the object)."""
+    low = tuple(a for a in assets if _top(a) <= 0.5 * altitude)
+    return low or assets
+
+
+def _top(asset: str) -> float:
+    parsed = sar.parse_name(asset.removeprefix(CLUTTER_PREFIX))
+    return 0.0 if parsed is None else sar.top_above_water(*parsed)
+
+
 def resolve_clutter_kinds(kinds: tuple[str, ...], object_meshes: list[str]
                           ) -> tuple[str, ...]:
     """``kinds`` checked and without repeats; the kinds of ``object_meshes`` are dropped

@@ -14,7 +14,7 @@ import numpy as np
 
 from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
-from .objects import clutter_assets, object_assets
+from .objects import clutter_assets, low_enough, object_assets
 from .scene import Effects, FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import attenuation, parse_water
 
@@ -93,7 +93,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     weights = [o.weight for o in config.objects]
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
-        k, asset, tint = _pick_object(rng, config, cumulative)
+        k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
         p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint)
         if p is not None:
             placements.append(p)
@@ -107,11 +107,13 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
 
 
 def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
-                 cumulative: np.ndarray | None) -> tuple[int, str, tuple[float, float, float]]:
+                 cumulative: np.ndarray | None, altitude: float
+                 ) -> tuple[int, str, tuple[float, float, float]]:
     """(index in ``config.objects``, asset key, albedo gains) of one object of interest:
     chosen by weight (``cumulative``: the running sums of the weights, None when they are
     all equal: then drawn as before weights existed), then, for a kind of variants, one
-    variant in a shade of its own (draws that objects of one mesh never make)."""
+    variant low enough for the camera's ``altitude`` (:func:`low_enough`) in a shade of
+    its own (draws that objects of one mesh never make)."""
     if cumulative is None:
         k = int(rng.integers(len(config.objects)))
     else:
@@ -120,6 +122,7 @@ def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
     assets = object_assets(config.objects[k].mesh)
     if len(assets) == 1:
         return k, assets[0], (1.0, 1.0, 1.0)
+    assets = low_enough(assets, altitude)
     asset = assets[int(rng.integers(len(assets)))]
     lo, hi, jitter = VARIANT_TINT
     gains = rng.uniform(lo, hi) * (1.0 + rng.uniform(-jitter, jitter, 3))
@@ -155,6 +158,7 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     asset = assets[0]
     if role is Role.CLUTTER:  # one draw either way: which variant, or the tint of the one
         if len(assets) > 1:
+            assets = low_enough(assets, pose.altitude)
             asset = assets[int(rng.integers(len(assets)))]
         else:
             tint = _clutter_tint(rng)

@@ -18,6 +18,7 @@ per face. Real dimensions and their sources: :mod:`~sdcomp.assets.sar.dimensions
 
 from __future__ import annotations
 
+import functools
 import re
 from types import ModuleType
 
@@ -83,6 +84,14 @@ def build(kind: str, variant: int = 0) -> ColoredMesh:
     :func:`mesh_name` (metres, x forward, y port, z up, centred on its bounding box,
     waterline at the sea surface). UserError for an unknown kind or variant."""
     return build_from_params(describe_variant(kind, variant), mesh_name(kind, variant))
+
+
+@functools.cache
+def top_above_water(kind: str, variant: int) -> float:
+    """Height (metres) of the variant's highest point above its waterline (the mesh is
+    built once per process for it)."""
+    mesh = build(kind, variant)
+    return float(mesh.bounds[1, 2] - mesh.waterline)
 
 
 def sub_types(kind: str) -> tuple[str, ...]:
