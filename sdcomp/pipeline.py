@@ -21,6 +21,7 @@ import numpy as np
 
 from .annotate import AnnotationRule, Frame, image_meta, instance_map, object_annotations
 from .assets import clutter as clutter_meshes
+from .assets import sar
 from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
 from .atlas.builtin import CLUTTER_ATLAS, object_atlas
@@ -140,9 +141,19 @@ def _sprites(mesh: ColoredMesh, atlas_config: AtlasConfig, sprites_dir: str | Pa
 
 def _load_object(source: str) -> ColoredMesh:
     try:
-        return MeshSpec(source).load()
+        mesh = MeshSpec(source).load()
     except UserError as e:
         raise UserError(f"--object {source}: {e}") from None
+    _remember_top(source, mesh)
+    return mesh
+
+
+def _remember_top(name: str, mesh: ColoredMesh) -> None:
+    """Tell the scene sampler how tall a variant is (it keeps variants lower than half the
+    altitude) from the mesh built here anyway: workers forked later inherit it."""
+    parsed = sar.parse_name(name)
+    if parsed is not None:
+        sar.top_above_water(*parsed, mesh=mesh)
 
 
 def _clutter_mesh(key: str) -> ColoredMesh:
@@ -151,7 +162,10 @@ def _clutter_mesh(key: str) -> ColoredMesh:
     name = clutter_mesh_name(key)
     if name in clutter_meshes.KINDS:
         return clutter_meshes.build(name)
-    return replace(build_builtin(name.removeprefix("clutter-")), name=name)
+    variant = name.removeprefix("clutter-")
+    mesh = build_builtin(variant)
+    _remember_top(variant, mesh)
+    return replace(mesh, name=name)
 
 
 _CACHED: dict[tuple[str, str], Generator] = {}  # per process: see cached_generator

@@ -6,15 +6,19 @@ clutter variants in their own small atlases), the same bytes with any number of 
 from __future__ import annotations
 
 import json
+import shlex
+from pathlib import Path
 
 import cv2
 import pytest
+import trimesh
 
 from sdcomp.assets import sar
 from sdcomp.atlas.builtin import CLUTTER_ATLAS, KIND_ATLAS
 from sdcomp.atlas.poses import PoseGrid
 from sdcomp.atlas.store import read_index
 from sdcomp.cli.atlas import main as atlas_main
+from sdcomp.cli.generate import build_parser, config_from_args
 from sdcomp.cli.mesh import main as mesh_main
 
 from .datasets import cli, generate
@@ -78,8 +82,6 @@ def test_mesh_info_and_export_of_a_kind(tmp_path, capsys):
     assert lines[3].split()[:2] == ["buoy-02", "spar"]
     out = tmp_path / "buoys.ply"
     assert mesh_main(["export", "buoy", str(out)]) == 0
-    import trimesh
-
     lineup = trimesh.load(out, process=False)
     assert len(lineup.faces) == sum(len(sar.build("buoy", v).faces) for v in range(10))
     assert mesh_main(["export", "buoy-07", str(tmp_path / "b.glb")]) == 0
@@ -107,3 +109,18 @@ def test_atlas_build_of_a_kind_writes_every_variant_and_the_kind_sheet(tmp_path,
     assert (index["size_px"], index["supersample"]) == (128, 3)
     assert index["grid"] == {"max_off_nadir": 80.0, "off_nadir_step": 45.0, "max_error": 40.0}
     assert len(index["poses"]) == len(PoseGrid(80.0, 45.0, 40.0).poses())
+
+
+def test_readme_command_lines_of_the_section_parse():
+    """Every ``sdcomp generate`` line of the README's search-and-rescue section makes a
+    valid config (flags, preset, weights, clutter kinds), without running it."""
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    section = text[text.index("## Search-and-rescue objects"):text.index(
+        "## Training detectors on it")]
+    lines = [ln.split("#")[0] for ln in section.splitlines()
+             if ln.startswith("sdcomp generate ")]
+    assert len(lines) >= 4
+    for line in lines:
+        args = build_parser().parse_args(shlex.split(line)[2:])
+        config = config_from_args(args)
+        assert config.objects and config.n >= 1, line

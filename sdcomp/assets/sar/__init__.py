@@ -18,7 +18,6 @@ per face. Real dimensions and their sources: :mod:`~sdcomp.assets.sar.dimensions
 
 from __future__ import annotations
 
-import functools
 import re
 from types import ModuleType
 
@@ -86,12 +85,18 @@ def build(kind: str, variant: int = 0) -> ColoredMesh:
     return build_from_params(describe_variant(kind, variant), mesh_name(kind, variant))
 
 
-@functools.cache
-def top_above_water(kind: str, variant: int) -> float:
-    """Height (metres) of the variant's highest point above its waterline (the mesh is
-    built once per process for it)."""
-    mesh = build(kind, variant)
-    return float(mesh.bounds[1, 2] - mesh.waterline)
+_TOPS: dict[tuple[str, int], float] = {}
+
+
+def top_above_water(kind: str, variant: int, mesh: ColoredMesh | None = None) -> float:
+    """Height (metres) of the variant's highest point above its waterline, kept once
+    known: from ``mesh`` when given (the variant's, built by the caller anyway), else from
+    a mesh built for it."""
+    key = (kind, variant)
+    if key not in _TOPS:
+        m = mesh if mesh is not None else build(kind, variant)
+        _TOPS[key] = float(m.bounds[1, 2] - m.waterline)
+    return _TOPS[key]
 
 
 def sub_types(kind: str) -> tuple[str, ...]:
