@@ -7,9 +7,11 @@
 
 A :class:`Generator` puts the stages together for one config: the assets (meshes -> sprite
 atlases, ground textures, the user's photos), the scene of image ``i``
-(:func:`sdcomp.scene.sample.sample_scene`), its rendering (:class:`sdcomp.render.Compositor`)
-and annotation (:func:`sdcomp.annotate.instance_map`). Image ``i`` depends only on (config,
-i): any process, any order, same pixels.
+(:func:`sdcomp.scene.sample.sample_scene`), its rendering (:class:`sdcomp.render.Compositor`),
+the labels of what it shows (:func:`sdcomp.annotate.label_map`), the camera's recording of both
+(:meth:`Compositor.record`: its lens moves the labels with the pixels) and the annotated
+objects measured on the recorded labels (:func:`sdcomp.annotate.measure`). Image ``i`` depends
+only on (config, i): any process, any order, same pixels.
 """
 
 from __future__ import annotations
@@ -19,7 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .annotate import AnnotationRule, Frame, image_meta, instance_map, object_annotations
+from .annotate import (
+    AnnotationRule,
+    Frame,
+    amodal_masks,
+    image_meta,
+    label_map,
+    measure,
+    object_annotations,
+)
 from .assets import clutter as clutter_meshes
 from .assets import sar
 from .assets.library import MeshSpec, build_builtin, is_builtin
@@ -34,7 +44,7 @@ from .render.textures import Textures
 from .scene.config import GeneratorConfig
 from .scene.objects import clutter_assets, clutter_mesh_name, object_assets, object_kind
 from .scene.sample import sample_scene
-from .scene.scene import FeatureSeeds, Scene
+from .scene.scene import FeatureSeeds, Role, Scene
 
 DEFAULT_SPRITES = "sprites"
 WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
@@ -90,17 +100,19 @@ class Generator:
                     sprites[key] = _sprites(mesh, CLUTTER_ATLAS, sprites_dir, progress,
                                             build_workers, rebuild=kind == mesh.name)
         photos = Backgrounds(config.backgrounds) if config.backgrounds else None
-        assets = RenderAssets(sprites, Textures.build(config.seed, config.rocks), photos)
+        assets = RenderAssets(sprites, Textures.build(config.seed), photos)
         self.compositor = Compositor(assets)
         self.compositor.prepare(self.model, FeatureSeeds.of(0, config.seed).noise_tile)
-        self.rule = AnnotationRule(config.min_visible_px, config.amodal)
+        self.rule = AnnotationRule(config.min_visible_px, config.amodal, config.min_in_frame)
         self.names = {c["id"]: c["name"] for c in config.categories}
 
     def warm(self) -> None:
-        """Prepare the sprites' small mip levels now (:meth:`SpriteSource.warm`, 0.2 s): call
-        it before forking workers, which then inherit them. Frames wider or higher than
-        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them it
-        does nothing."""
+        """Build every water tile (:meth:`WaterTextures.build_all`, 1.3 s) and prepare the
+        sprites' small mip levels (:meth:`SpriteSource.warm`, 0.2 s) now: call it before
+        forking workers, which then inherit them. Frames wider or higher than
+        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them the
+        sprites are not prepared."""
+        self.compositor.assets.textures.water.build_all()
         if max(self.model.width, self.model.height) > WARM_MAX_SIDE:
             return
         for src in self.compositor.assets.sprites.values():
@@ -118,9 +130,14 @@ class Generator:
         """Any ``scene`` of this generator's assets (e.g. :meth:`scene` with placements of
         your own, :func:`dataclasses.replace`-d) rendered and annotated by ``rule``
         (default: the config's)."""
+        rule = rule or self.rule
         out = self.compositor.render(scene)
-        instances, objects, dropped = instance_map(scene, out.layers, rule or self.rule)
-        return Frame(out.image, instances, objects, dropped, scene)
+        labels, objs = label_map(scene, out.layers)
+        amodal = amodal_masks(labels.shape, objs) if rule.amodal else None
+        image, labels, amodal, camera = self.compositor.record(scene, out.image, labels, amodal)
+        objects, dropped = measure(labels, objs, rule, amodal, moved="lens" in camera["stages"])
+        dropped += scene.count(Role.OBJECT) - len(objs)
+        return Frame(image, labels, objects, dropped, scene, camera)
 
     def sample(self, index: int) -> Sample:
         """Image ``index`` as arrays with COCO-style annotations (no ids, no RLE)."""

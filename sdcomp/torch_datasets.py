@@ -1,17 +1,22 @@
 """PyTorch datasets: images generated on the fly, or read from a generated folder.
 
 Both return ``(image, target)`` in the torchvision detection format, so the models of
-``torchvision.models.detection`` train on them directly::
+``torchvision.models.detection`` train on them directly, as torchvision's ``tv_tensors`` so
+that every ``torchvision.transforms.v2`` transform moves the image, boxes and masks together::
 
-    image   (3, H, W) float32 RGB in [0, 1] (or, with ``image_dtype=torch.uint8``,
-            uint8 RGB in 0..255)
-    target  {"boxes":    (N, 4) float32 x1, y1, x2, y2 in pixels (pixel edges: a box
-                         [x, y, w, h] of COCO is x1 = x, x2 = x + w),
+    image   tv_tensors.Image (3, H, W) float32 RGB in [0, 1] (or, with
+            ``image_dtype=torch.uint8``, uint8 RGB in 0..255)
+    target  {"boxes":    tv_tensors.BoundingBoxes (N, 4) float32, format XYXY, canvas_size
+                         (H, W): x1, y1, x2, y2 in pixels (pixel edges: a box [x, y, w, h]
+                         of COCO is x1 = x, x2 = x + w),
              "labels":   (N,) int64 COCO category ids (from 1; 0 is torchvision's background),
-             "masks":    (N, H, W) uint8 0/1 instance masks,
-             "image_id": int, COCO image id (image index + 1),
-             "area":     (N,) float32 mask pixel counts,
+             "masks":    tv_tensors.Mask (N, H, W) uint8 0/1 instance masks,
+             "image_id": int, COCO image id (the image's index, the number in its file name),
+             "area":     (N,) float32 mask pixel counts (of the untransformed mask),
              "iscrowd":  (N,) int64 zeros}
+
+A v2 transform that drops or crops objects leaves boxes that may be empty: end the pipeline
+with ``v2.SanitizeBoundingBoxes()`` (it removes them with their labels and masks).
 
 Use :func:`collate` as the DataLoader's ``collate_fn`` (images differ in their number of
 objects): a batch is a tuple of images and a tuple of targets.
@@ -34,7 +39,11 @@ OpenCV call), and DataLoader workers are forked on Linux. Importing this module 
 installs :func:`sdcomp.pool.pause_opencv_threads_on_fork`: OpenCV's threads pause while any
 process forks and the child keeps one (a DataLoader worker is one of several processes).
 
-This module is the only one in sdcomp that imports torch.
+:func:`fill_empty_target` is the guard torchvision's own ``CocoDetection`` (wrapped for v2)
+needs on images without objects, whose targets lack ``boxes`` and ``labels``.
+
+This module (with :mod:`sdcomp.bench`) is the only one in sdcomp that imports torch and
+torchvision.
 """
 
 from __future__ import annotations
@@ -49,6 +58,12 @@ import numpy as np
 import torch
 
 from .errors import UserError
+
+try:
+    from torchvision import tv_tensors
+except ImportError:  # pragma: no cover - torchvision comes with the dev and bench extras
+    raise ImportError("sdcomp.torch_datasets needs torchvision (pip install torchvision, or "
+                      "pip install 'sdcomp[bench]')") from None
 from .io.png import decode_png16
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.config import GeneratorConfig
@@ -72,7 +87,7 @@ def check_image_dtype(image_dtype: Any) -> torch.dtype:
 
 
 def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[int],
-              category_ids: Sequence[int], bboxes: Sequence[Sequence[int]],
+              category_ids: Sequence[int], bboxes: Sequence[Sequence[float]],
               image_id: int, image_dtype: torch.dtype = torch.float32
               ) -> tuple[torch.Tensor, Target]:
     """The torchvision form of one image: ``image`` (H, W, 3) uint8 RGB, ``instances``
@@ -90,15 +105,32 @@ def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[i
     masks = (instances[None] == ids).view(np.uint8)  # (N, H, W), also for N = 0
     boxes = np.array([[x, y, x + bw, y + bh] for x, y, bw, bh in bboxes],
                      np.float32).reshape(n, 4)
-    target = {"boxes": torch.from_numpy(boxes),
+    target = {"boxes": tv_tensors.BoundingBoxes(torch.from_numpy(boxes), format="XYXY",
+                                                canvas_size=(h, w)),
               "labels": torch.from_numpy(np.asarray(category_ids, np.int64).reshape(n)),
-              "masks": torch.from_numpy(masks),
+              "masks": tv_tensors.Mask(torch.from_numpy(masks)),
               "image_id": int(image_id),
               "area": torch.from_numpy(masks.reshape(n, h * w).sum(1, dtype=np.int64)
                                        .astype(np.float32)),
               "iscrowd": torch.from_numpy(np.zeros(n, np.int64))}
-    img = torch.from_numpy(chw)
+    img = tv_tensors.Image(torch.from_numpy(chw))
     return img, target
+
+
+def fill_empty_target(image: Any, target: Target) -> tuple[Any, Target]:
+    """A v2 ``transforms(image, target)`` for torchvision's ``CocoDetection`` wrapped with
+    ``wrap_dataset_for_transforms_v2``: an image without objects comes with a target of
+    only ``image_id``, on which detection models raise ``KeyError: 'boxes'``; this adds
+    empty ``boxes`` (0, 4) XYXY, ``labels`` (0,) int64 and ``masks`` (0, H, W) uint8.
+    Other targets pass unchanged."""
+    if "boxes" not in target:
+        h, w = image.shape[-2:] if isinstance(image, torch.Tensor) else image.size[::-1]
+        target = {**target,
+                  "boxes": tv_tensors.BoundingBoxes(torch.zeros((0, 4)), format="XYXY",
+                                                    canvas_size=(h, w)),
+                  "labels": torch.zeros(0, dtype=torch.int64),
+                  "masks": tv_tensors.Mask(torch.zeros((0, h, w), dtype=torch.uint8))}
+    return image, target
 
 
 def collate(batch: Sequence[tuple[torch.Tensor, Target]]) -> tuple[tuple, tuple]:
@@ -115,21 +147,23 @@ class Batch(tuple):
     tensor per dtype, so a worker shares 3-4 buffers per batch with the main process instead
     of about 6 per image (each costs the main process a socket round trip for its file
     descriptor: about 2 ms of its CPU per image, which it takes from the workers on a small
-    machine). Unpickled it is a plain tuple whose tensors are views of those buffers.
-    Objects other than plain tensors (tv_tensors, numbers) are pickled as they are."""
+    machine). Unpickled it is a plain tuple whose tensors are views of those buffers, the
+    tv_tensors (images, boxes, masks) wrapped again as they were. Other objects (numbers,
+    other tensor subclasses) are pickled as they are."""
 
     def __reduce__(self):
         groups: dict[str, list[torch.Tensor]] = {}
         sizes: dict[str, int] = {}
 
-        def hollow(obj: Any) -> Any:  # a plain tensor -> a _Slot into `groups`
-            if type(obj) is not torch.Tensor or obj.requires_grad:
+        def hollow(obj: Any) -> Any:  # a plain tensor or tv_tensor -> a _Slot into `groups`
+            wrap = _wrap_spec(obj)
+            if wrap is None or obj.requires_grad:
                 return obj
             key = str(obj.dtype)
-            groups.setdefault(key, []).append(obj)
+            groups.setdefault(key, []).append(obj.as_subclass(torch.Tensor))
             offset = sizes.get(key, 0)
             sizes[key] = offset + obj.numel()
-            return _Slot((key, offset, tuple(obj.shape)))
+            return _Slot((key, offset, tuple(obj.shape), wrap))
 
         skeleton = _walk(tuple(self), hollow)
         buffers = {key: torch.cat([t.reshape(-1) for t in ts]) for key, ts in groups.items()}
@@ -137,7 +171,37 @@ class Batch(tuple):
 
 
 class _Slot(tuple):
-    """Where a packed tensor goes: (dtype key, offset, shape)."""
+    """Where a packed tensor goes: (dtype key, offset, shape, its tv_tensor wrapping)."""
+
+
+def _wrap_spec(obj: Any) -> tuple | None:
+    """How to wrap a packed tensor again: ``()`` for a plain tensor, ``("image",)``,
+    ``("mask",)``, ``("boxes", format, canvas_size, clamping_mode)``; None for objects that
+    are not packed."""
+    kind = type(obj)
+    if kind is torch.Tensor:
+        return ()
+    if kind is tv_tensors.Image:
+        return ("image",)
+    if kind is tv_tensors.Mask:
+        return ("mask",)
+    if kind is tv_tensors.BoundingBoxes:
+        return ("boxes", obj.format.name, tuple(obj.canvas_size),
+                getattr(obj, "clamping_mode", None))
+    return None
+
+
+def _wrapped(tensor: torch.Tensor, wrap: tuple) -> torch.Tensor:
+    """``tensor`` wrapped as :func:`_wrap_spec` recorded (no copy)."""
+    if not wrap:
+        return tensor
+    if wrap[0] == "image":
+        return tv_tensors.Image(tensor)
+    if wrap[0] == "mask":
+        return tv_tensors.Mask(tensor)
+    _, fmt, canvas, clamping = wrap
+    extra = {} if clamping is None else {"clamping_mode": clamping}
+    return tv_tensors.BoundingBoxes(tensor, format=fmt, canvas_size=canvas, **extra)
 
 
 def _walk(obj: Any, leaf: Callable[[Any], Any]) -> Any:
@@ -155,8 +219,8 @@ def _fill_batch(skeleton: tuple, buffers: dict[str, torch.Tensor]) -> tuple:
     def fill(obj: Any) -> Any:
         if type(obj) is not _Slot:
             return obj
-        key, offset, shape = obj
-        return buffers[key][offset:offset + math.prod(shape)].view(shape)
+        key, offset, shape, wrap = obj
+        return _wrapped(buffers[key][offset:offset + math.prod(shape)].view(shape), wrap)
 
     return _walk(skeleton, fill)
 
@@ -186,8 +250,9 @@ class SyntheticDetection(torch.utils.data.Dataset):
         config: the generator's config (``config.n`` is not used; ``length`` is).
         length: number of images (indices 0 .. length - 1).
         sprites_dir: sprite atlas folder (built there on first use when missing).
-        transforms: optional ``transforms(image, target) -> (image, target)``, applied last
-            (e.g. torchvision.transforms.v2 with tv_tensors, or your own augmentations).
+        transforms: optional ``transforms(image, target) -> (image, target)``, applied last:
+            a ``torchvision.transforms.v2`` pipeline moves image, boxes and masks together
+            (end it with ``v2.SanitizeBoundingBoxes()`` where objects can leave the frame).
         image_dtype: ``torch.float32`` (RGB in [0, 1]) or ``torch.uint8`` (RGB in 0..255,
             a quarter of the bytes through a DataLoader; see the module docstring).
     """
@@ -227,7 +292,7 @@ class SyntheticDetection(torch.utils.data.Dataset):
         objs = frame.objects
         image, target = to_sample(frame.image, frame.instances,
                                   [o.instance_id for o in objs], [o.category_id for o in objs],
-                                  [o.bbox for o in objs], index + 1, self.image_dtype)
+                                  [o.bbox for o in objs], index, self.image_dtype)
         if self.transforms is not None:
             image, target = self.transforms(image, target)
         return image, target
@@ -293,4 +358,5 @@ class GeneratedCoco(torch.utils.data.Dataset):
         return image, target
 
 
-__all__ = ["SyntheticDetection", "GeneratedCoco", "Batch", "collate", "to_sample"]
+__all__ = ["SyntheticDetection", "GeneratedCoco", "Batch", "collate", "to_sample",
+           "fill_empty_target"]

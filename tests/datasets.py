@@ -158,9 +158,9 @@ def check_intact(root: Path, *, allow_tmp: bool = False, decode: bool = True) ->
 
 
 def _visible_files(folder: Path) -> list[Path]:
-    """The files of ``folder`` whose names do not start with a dot, sorted; none if it is
-    absent."""
-    return sorted(folder.glob("[!.]*")) if folder.exists() else []
+    """The files under ``folder`` (and its split sub-folders) whose names do not start with
+    a dot, sorted; none if it is absent."""
+    return sorted(p for p in folder.rglob("[!.]*") if p.is_file()) if folder.exists() else []
 
 
 def _check_images(folder: Path, decode: bool) -> None:
@@ -217,6 +217,20 @@ def _check_annotations(coco: COCO, iid: int, im: dict, mask_path: Path) -> None:
         ys, xs = np.nonzero(m)
         assert a["bbox"] == [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
                              int(ys.max() - ys.min() + 1)]
+
+
+def by_name(folder: Path) -> list[Path]:
+    """The files under ``folder`` and its split sub-folders (no hidden ones), sorted by
+    file name (the image index)."""
+    return sorted((p for p in folder.rglob("[!.]*") if p.is_file()), key=lambda p: p.name)
+
+
+def image_path(root: Path, index: int, ext: str = "jpg") -> Path:
+    """The file of image ``index`` in the dataset ``root``, whichever split it is in."""
+    found = [p for s in ("train", "val") if (p := root / "images" / s / f"{index:06d}.{ext}")
+             .exists()]
+    assert len(found) == 1, f"image {index} of {root}: {found}"
+    return found[0]
 
 
 def one_line_error(err: str) -> None:

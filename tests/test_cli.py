@@ -94,7 +94,7 @@ def test_python_m_forms_still_work(module):
 def test_dump_config_round_trip(tmp_path):
     # defaults < preset < config file < flags, all in play
     (tmp_path / "base.toml").write_text('altitude = "12-18"\nwater = ["green", "10,20,30"]\n'
-                                        "rocks = 0.1\n")
+                                        "shallow = 0.1\n")
     argv = ["generate", "--preset", "paper-alt30", "--config", tmp_path / "base.toml",
             "--pitch", "40-90", "--format", "coco,yolo", "--yolo-seg", "--fov", "80.5",
             "--out", tmp_path / "never"]
@@ -199,3 +199,22 @@ def test_usage_line_names_the_way_the_command_was_run(name):
             run()
         assert exc.value.code == 0 and buf.getvalue().startswith(f"usage: {want} ")
     assert cli._RUNNING == []  # nothing left behind by either run
+
+
+def test_retired_options_load_with_a_warning(tmp_path, caplog):
+    """Flags and config keys of earlier versions (the old renderer's noise, exposure,
+    rocks...) are accepted with a warning naming what replaced them, and change nothing."""
+    from sdcomp.scene.config import RETIRED
+
+    parser = generate.build_parser()
+    with caplog.at_level("WARNING"):
+        old = generate.config_from_args(parser.parse_args(
+            ["--noise", "3", "--exposure", "0.5", "--out", str(tmp_path / "x")]))
+    assert old == generate.config_from_args(parser.parse_args(["--out", str(tmp_path)]))
+    text = caplog.text
+    assert "'noise' is no longer used" in text and RETIRED["noise"] in text
+    assert "'exposure' is no longer used" in text
+    (tmp_path / "old.toml").write_text("rocks = 0.3\nambient = 0.4\naltitude = 25\n")
+    cfg = GeneratorConfig.from_mapping(generate.load_toml(tmp_path / "old.toml"))
+    assert cfg.altitude == GeneratorConfig(altitude=25).altitude
+    assert "--noise" not in parser.format_help()  # not listed

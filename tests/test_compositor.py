@@ -23,21 +23,22 @@ from sdcomp.assets.library import MeshSpec
 from sdcomp.assets.mesh import ColoredMesh
 from sdcomp.pipeline import Generator
 from sdcomp.render import effects
-from sdcomp.render.background import REDUCE_MAX
 from sdcomp.render.ground import perspective_sample
-from sdcomp.render.lighting import lighting
-from sdcomp.scene.camera import CameraPose, ground_points
+from sdcomp.scene.camera import CameraPose
 from sdcomp.scene.config import GeneratorConfig, ObjectSpec
+from sdcomp.scene.look_table import clean_look
 from sdcomp.scene.sample import object_asset
-from sdcomp.scene.scene import Effects, Placement, Role, Shore, on_land
-from sdcomp.scene.water import attenuation
+from sdcomp.scene.scene import Placement, Role
+from sdcomp.scene.water import WaterParams, constituents
 
 from .conftest import box_mesh
 
 BOX = (2.0, 1.0, 0.3)  # metres: length (body x), beam (body y), height
 PYRAMID = (1.5, 0.6)  # metres: square base side, height
 WATERLINE_FRACTION = 0.25  # a mesh file floats with a quarter of its height under water
-NO_EFFECTS = Effects(0.0, (1.0, 1.0, 1.0), 0.0, None, None, 0.0, 95)
+#: the test's turbidity -> (water type, place in its range): clear ocean, a middling lake
+#: (about 0.6 of an object's light left 0.5 m down), murky river water
+WATERS = {0.0: ("ocean", 0.0), 0.5: ("lake", 0.5), 1.0: ("turbid", 1.0)}
 BOX_MODEL, PYRAMID_MODEL = 0, 1
 W, H = 2000, 1500
 
@@ -84,15 +85,26 @@ def _obj(model: int, x: float = 0.0, y: float = 0.0, heading: float = 0.0,
     return Placement(Role.OBJECT, "", model + 1, x, y, heading, roll, pitch, draft)
 
 
+def _water(turbidity: float) -> WaterParams:
+    """Deep, uniform water of the test's ``turbidity`` (:data:`WATERS`) under a clear sky
+    and a high sun, a light breeze."""
+    kind, t = WATERS[turbidity]
+    chl, cdom, tsm = constituents(kind, t)
+    return WaterParams(name=kind, water_type=kind, chl=chl, cdom=cdom, tsm=tsm, turbidity=t,
+                       patchiness=0.0, wind=3.0, sky="clear", sun_elevation=70.0,
+                       sun_azimuth=30.0, seed=1)
+
+
 def _scene(gen: Generator, placements, altitude: float = 20.0, turbidity: float = 0.0):
-    """Image 0's scene with a nadir camera (heading 0), the given objects, a high sun, no
-    effects."""
+    """Image 0's scene with a nadir camera (heading 0), the given objects, a high sun, a
+    clean camera (no lens, no noise: the pinhole image)."""
     placements = [replace(p, asset=object_asset(gen.config, p.category_id - 1))
                   for p in placements]
+    m = gen.model
     return replace(gen.scene(0), placements=tuple(placements),
-                   camera=CameraPose(altitude, 90.0, 0.0), turbidity=turbidity,
-                   attenuation=attenuation(turbidity), effects=NO_EFFECTS, shore=None,
-                   hills=None, floor_depth=10.0, sun_elevation=70.0, sun_azimuth=30.0)
+                   camera=CameraPose(altitude, 90.0, 0.0), water=_water(turbidity),
+                   look=clean_look(m.width, m.height, m.fx, m.fy), defocus_blur=None,
+                   shore=None, hills=None)
 
 
 def _render(gen: Generator, placements, **kw):
@@ -408,7 +420,7 @@ def test_sampled_oblique_frames_annotations_derive_from_masks(sprites_dir):
         assert frame.scene.camera.pitch < 90
         p = math.radians(frame.scene.camera.pitch)
         assert frame.gsd == pytest.approx(frame.scene.camera.altitude / math.sin(p)
-                                          / gen.model.fx)
+                                          / gen.model.fx / frame.camera["zoom"])
         n += len(frame.objects)
     assert n >= 2
 
@@ -459,48 +471,32 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
         assert key in meta, key
     assert meta["height_above_takeoff(meter)"] == round(sc.camera.altitude, 4)
     assert meta["gimbal_pitch(degrees)"] == round(sc.camera.pitch, 4)
-    assert meta["gimbal_heading(degrees)"] == round(sc.camera.heading, 4)
-    assert meta["gsd(m/px)"] == pytest.approx(sc.camera.altitude / rov.model.fx, abs=1e-6)
-    assert meta["turbidity"] == round(sc.turbidity, 4)
+    # DJI's convention: clockwise from north (+y), -180 to 180
+    assert meta["gimbal_heading(degrees)"] == round((90 - sc.camera.heading + 180) % 360 - 180, 4)
+    assert meta["gsd(m/px)"] == pytest.approx(
+        sc.camera.altitude / rov.model.fx / frame.camera["zoom"], abs=1e-6)
+    assert meta["turbidity"] == round(sc.water.turbidity, 4)
     assert meta["water_color"] in ("brown", "blue", "green")
+    assert meta["camera_look"] == sc.look.preset and meta["camera_stages"] == list(
+        frame.camera["stages"])
     assert meta["objects_placed"] - meta["objects_dropped"] == n
 
 
 # --------------------------------------------------------------------------- 8. huge frames
-
-def test_noise_is_added_block_by_block_to_frames_larger_than_the_tile():
-    rng = np.random.default_rng(3)
-    tile = rng.integers(0, 256, (7, 5, 3), dtype=np.uint8)
-    image = rng.integers(0, 256, (23, 17, 3), dtype=np.uint8)
-    before = image.copy()
-    out = effects.add_noise(image, tile, 0.5, np.random.default_rng(11))
-    assert out is image  # in place: no second copy of a huge frame
-    offsets = np.random.default_rng(11)
-    oy, ox = int(offsets.integers(7)), int(offsets.integers(5))
-    ys = (np.arange(23) + oy) % 7
-    xs = (np.arange(17) + ox) % 5
-    field = tile[ys[:, None], xs[None, :]]  # the tile repeated from the random offset
-    want = cv2.addWeighted(before, 1.0, field, 0.5, -64.0)
-    assert np.array_equal(out, want)
-    small = rng.integers(0, 256, (4, 3, 3), dtype=np.uint8)  # fits: a window, a new array
-    assert effects.add_noise(small, tile, 0.5, np.random.default_rng(11)) is not small
-
 
 def test_huge_frame_blur_is_done_on_a_reduced_copy_in_place(monkeypatch, rov):
     monkeypatch.setattr(effects, "BLUR_EXACT_MAX", 100)
     monkeypatch.setattr(effects, "BLUR_WORK_SIZE", 50)
     rng = np.random.default_rng(0)
     image = rng.integers(0, 256, (150, 200, 3), dtype=np.uint8)  # white noise: all detail
-    fx = replace(NO_EFFECTS, motion_blur=(24.0, 30.0))
-    out = effects.apply_effects(image.copy(), fx, None, rng)
+    out = effects.blur(image.copy(), (24.0, 30.0), None)
     assert out.shape == image.shape and out.dtype == np.uint8
     # blurred: the pixel-to-pixel detail is gone, the mean brightness stays
     assert np.abs(np.diff(out.astype(np.int16), axis=1)).mean() < 0.2 * np.abs(
         np.diff(image.astype(np.int16), axis=1)).mean()
     assert abs(float(out.mean()) - float(image.mean())) < 2.0
     target = image.copy()
-    fx = replace(NO_EFFECTS, defocus_blur=8.0)
-    assert effects.apply_effects(target, fx, None, rng) is target
+    assert effects.blur(target, None, 8.0) is target
 
 
 def test_rgb_to_bgr_in_place_by_bands():
@@ -575,50 +571,6 @@ def test_line_mean_in_bands_equals_one_band(monkeypatch):
     assert np.array_equal(effects.line_mean(image[..., 0], 17, 63.0), whole[..., 0])
 
 
-# --------------------------------------------------------------------------- 8. reduced water
-
-@pytest.mark.parametrize("altitude", [20.0, 45.0])
-@pytest.mark.parametrize("turbidity", [0.0, 1.0])
-@pytest.mark.parametrize("shore", [None, Shore(30.0, 6.0, 5)])
-def test_nadir_water_drawn_smaller_looks_the_same(rov, monkeypatch, altitude, turbidity,
-                                                  shore):
-    """Straight down from 20 m and higher, the wave texture of a 416 px frame is magnified
-    more than REDUCE_MAX times, so the water is drawn that much smaller and magnified: it
-    stays within a level or two on average, and a few at the 99th percentile, of the water
-    drawn at full size. Land (drawn afterwards, at full size) is identical."""
-    bg = rov.compositor.background(rov.model)
-    scene = replace(_scene(rov, [], altitude=altitude, turbidity=turbidity), shore=shore,
-                    floor_depth=4.0)
-    lit = lighting(scene)
-    assert bg.reduction(scene, lit) == REDUCE_MAX
-    small = bg.draw(scene, lit, np.random.default_rng(1)).astype(int)
-    monkeypatch.setattr(bg, "reduction", lambda *_: 1)
-    full = bg.draw(scene, lit, np.random.default_rng(1)).astype(int)
-    diff = np.abs(small - full)
-    assert abs(float((small - full).mean())) < 0.25
-    assert float(diff.mean()) < 1.5 and np.percentile(diff, 99) <= 8
-    if shore is not None:
-        h, w = full.shape[:2]
-        v, u = np.mgrid[0:h, 0:w] + 0.5
-        pts, _ = ground_points(rov.model, scene.camera, u, v)
-        land = on_land(shore, pts[..., 0], pts[..., 1]).astype(np.uint8)
-        inside = cv2.erode(land, np.ones((15, 15), np.uint8)) > 0  # off the foam line
-        assert inside.mean() > 0.1
-        assert diff[inside].max() == 0
-
-
-def test_water_drawn_full_size_where_its_texture_is_fine(rov):
-    """Low (the texture's texels about one pixel), oblique, or on the user's photos: the
-    water is drawn at full size."""
-    bg = rov.compositor.background(rov.model)
-    low = _scene(rov, [], altitude=10.0)
-    assert bg.reduction(low, lighting(low)) == 1
-    oblique = replace(_scene(rov, []), camera=CameraPose(20.0, 60.0, 0.0))
-    assert bg.reduction(oblique, lighting(oblique)) == 1
-    high = _scene(rov, [], altitude=40.0)
-    assert bg.reduction(high, lighting(high)) == REDUCE_MAX
-
-
 # --------------------------------------------------------------------------- 9. sprite levels
 
 def test_sprite_levels_are_box_filters_of_the_atlas(rov):
@@ -659,7 +611,7 @@ def test_texture_rows_are_the_texture_at_each_ground_point(rov):
     """Texture.sample_rows (one ground line per row) equals sampling every point
     (x0 + scale_i u_j, y0 + y_i) by itself, wrapped into the tile's period, to within a
     level (the sampling position is rounded to 1/32 texel either way)."""
-    tile = rov.compositor.assets.textures.waves[1]
+    tile = rov.compositor.assets.textures.land
     rng = np.random.default_rng(4)
     scale = rng.uniform(2.0, 40.0, 50)
     u = np.linspace(-0.7, 0.7, 90)
@@ -679,7 +631,7 @@ def test_texture_rows_are_the_texture_at_each_ground_point(rov):
 def test_oblique_view_rows_above_the_horizon_and_far_away_are_the_mean(rov):
     """Looking 15 degrees down, rows above the horizon and rows whose pixels span many
     texels are the tile's mean colour; near rows carry the texture."""
-    tile = rov.compositor.assets.textures.waves[0]
+    tile = rov.compositor.assets.textures.land
     out = perspective_sample(rov.model, 20.0, 15.0, tile, 3.0, 7.0)
     mean = np.clip(tile.mean + 0.5, 0, 255).astype(np.uint8)
     horizon = rov.model.height / 2 - rov.model.fy * math.tan(math.radians(15.0))

@@ -179,7 +179,7 @@ def has_image(out: Path, proc: subprocess.Popen) -> bool:
     """Whether the run ``proc`` has written an image into ``out``; AssertionError if it
     ended without one."""
     assert proc.poll() is None, f"the run ended (exit status {proc.returncode}) before an image"
-    return (out / "images").exists() and bool(list((out / "images").glob("*.jpg")))
+    return (out / "images").exists() and bool(list((out / "images").glob("*/*.jpg")))
 
 
 def files_and_sizes(root: Path) -> dict:

@@ -206,15 +206,19 @@ def _run_strategy(max_side: int):
         "fov": st.floats(1, 170),
         "turbidity": param("turbidity"), "wind": param("wind"),
         "floor_depth": param("floor_depth"), "whitecaps": st.floats(0, 5),
-        "sun_elevation": param("sun_elevation"), "ambient": param("ambient"),
+        "sun_elevation": param("sun_elevation"), "cloud_cover": param("cloud_cover"),
+        "sky": st.lists(st.sampled_from(["clear", "broken", "overcast"]), min_size=1,
+                        max_size=3),
         "shadows": st.booleans(), "draft": param("draft"), "tilt": st.floats(0, 30),
-        "rocks": st.floats(0, 1), "shore": st.floats(0, 1), "hills": st.floats(0, 1),
-        "exposure": param("exposure"), "white_balance": param("white_balance"),
-        "noise": param("noise"), "motion_blur": st.floats(0, 1),
-        "defocus_blur": st.floats(0, 1), "vignetting": param("vignetting"),
+        "shallow": st.floats(0, 1), "shore": st.floats(0, 1), "hills": st.floats(0, 1),
+        "look": st.sampled_from(["auto", "clean", "mavic2pro", "phantom4pro", "zenmuse-x5"]),
+        "recording": st.sampled_from(["video", "photo"]), "motion_blur": st.floats(0, 1),
+        "defocus_blur": st.floats(0, 1), "min_in_frame": st.floats(0, 1),
         "sensor_px": st.tuples(st.integers(1, 9000), st.integers(1, 9000)),
-        "water": st.one_of(st.sampled_from(["brown", "0,0,0", "255,255,255"]), st.lists(
-            st.sampled_from(["brown", "blue", "green", "10,200,30"]), min_size=1, max_size=3)),
+        "water": st.one_of(st.sampled_from(["brown", "0,0,0", "255,255,255", "ocean"]),
+                           st.lists(st.sampled_from(["brown", "blue", "green", "10,200,30",
+                                                     "lake", "algae"]),
+                                    min_size=1, max_size=3)),
         "clutter_kinds": st.lists(st.sampled_from(["buoy", "log", "boat", "foam"]),
                                   min_size=1, max_size=4),
         "objects": st.sampled_from([["bluerov2"], [{"mesh": "bluerov2", "category": "a"},
@@ -261,12 +265,12 @@ def check_run(mapping: dict, sprites: Path, photos: Path | None = None) -> None:
         _event("valid dataset")
         assert counts["images"] == config.n
         assert check_intact(out) == config.n  # masks, boxes and areas agree
-        for p in (out / "images").iterdir():
+        for p in (out / "images").glob("*/*"):
             img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             assert img.shape == (config.height, config.width, 3)
         assert counts["objects_dropped"] >= 0 and counts["annotations"] >= 0
         mask_ids = 0
-        for p in (out / "masks").iterdir():
+        for p in (out / "masks").glob("*/*"):
             m = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             mask_ids += len(np.unique(m[m > 0]))
         assert mask_ids == counts["annotations"]

@@ -32,7 +32,7 @@ from sdcomp.run import local as writer
 from sdcomp.run.record import split_of
 from sdcomp.scene.config import GeneratorConfig
 
-from .datasets import cli, generate
+from .datasets import by_name, cli, generate, image_path
 
 # pycocotools' own decode under numpy 2 warns about __array__(copy=...); not ours
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
@@ -148,8 +148,8 @@ def test_layout_images_masks_annotations_dataset_json(dataset_a):
     # no leftover temporary files anywhere
     assert not [p for p in root.rglob(".*")]
 
-    image_files = sorted((root / "images").iterdir())
-    mask_files = sorted((root / "masks").iterdir())
+    image_files = by_name(root / "images")
+    mask_files = by_name(root / "masks")
     assert [p.name for p in image_files] == [f"{i:06d}.jpg" for i in range(40)]
     assert [p.name for p in mask_files] == [f"{i:06d}.png" for i in range(40)]
     for p in image_files:
@@ -196,15 +196,15 @@ def test_png_image_format(tmp_path, sprites_dir):
     out = tmp_path / "png"
     rc, _, err = gen(out, sprites_dir, "--n", "5", "--image-format", "png")
     assert rc == 0, err
-    names = sorted(p.name for p in (out / "images").iterdir())
-    assert names == [f"{i:06d}.png" for i in range(5)]
-    for name in names:
-        data = (out / "images" / name).read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n"
-        img = cv2.imread(str(out / "images" / name), cv2.IMREAD_UNCHANGED)
+    paths = by_name(out / "images")
+    assert [p.name for p in paths] == [f"{i:06d}.png" for i in range(5)]
+    for path in paths:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         assert img.dtype == np.uint8 and img.shape == (96, 96, 3)
     images, _ = both(out)
-    assert sorted(im["file_name"] for im in images) == names
+    assert sorted(im["file_name"] for im in images) == sorted(
+        p.relative_to(out / "images").as_posix() for p in paths)
     assert json.loads((out / "dataset.json").read_text())["config"]["image_format"] == "png"
 
 
@@ -221,8 +221,9 @@ def test_coco_files_valid_for_pycocotools(dataset_a):
         for iid in coco.getImgIds():
             im = coco.imgs[iid]
             image_ids.append(iid)
-            assert im["file_name"] == f"{iid - 1:06d}.jpg"
-            assert split_of(7, iid - 1, 0.2) == split
+            assert im["file_name"] == f"{split}/{iid:06d}.jpg"  # id = the file's number
+            assert im["mask_file"] == f"{split}/{iid:06d}.png"
+            assert split_of(7, iid, 0.2) == split
             for k in META_KEYS:
                 assert k in im["meta"], k
             assert isinstance(im["meta"]["water_color"], str)
@@ -286,14 +287,14 @@ def test_val_fraction_is_exact_and_deterministic(tmp_path, sprites_dir):
     assert len(val["images"]) == 20 and len(train["images"]) == 80
     counts = json.loads((roots[0] / "dataset.json").read_text())["counts"]
     assert (counts["val"], counts["train"]) == (20, 80)
-    assert sorted(im["id"] - 1 for im in val["images"]) == [
+    assert sorted(im["id"] for im in val["images"]) == [
         i for i in range(100) if split_of(3, i, 0.2) == "val"]
     for split in ("train", "val"):
         p = f"annotations/instances_{split}.json"
         assert (roots[0] / p).read_bytes() == (roots[1] / p).read_bytes()
     # another seed chooses other val images (still exactly 20)
     other = [i for i in range(100) if split_of(4, i, 0.2) == "val"]
-    assert len(other) == 20 and other != sorted(im["id"] - 1 for im in val["images"])
+    assert len(other) == 20 and other != sorted(im["id"] for im in val["images"])
 
 
 def test_val_fraction_zero_gives_empty_loadable_val(tmp_path, sprites_dir):
@@ -330,14 +331,16 @@ def test_workers_after_opencv_use_in_the_same_process(tmp_path, sprites_dir):
     rc, _, err = python(code, [*BASE, "--out", out, "--sprites", sprites_dir, "--workers", 2,
                                "--no-progress"], timeout=40)
     assert rc == 0, err
-    assert len(list((out / "images").iterdir())) == 40
+    assert len(by_name(out / "images")) == 40
 
 
 def test_other_seed_gives_other_images(dataset_a, tmp_path, sprites_dir):
     b = tmp_path / "seed8"
     rc, _, err = gen(b, sprites_dir, "--seed", "8")
     assert rc == 0, err
-    fa, fb = files(dataset_a / "images"), files(b / "images")
+    # (another seed puts other images in val: compare by file name)
+    fa = {Path(k).name: v for k, v in files(dataset_a / "images").items()}
+    fb = {Path(k).name: v for k, v in files(b / "images").items()}
     assert sorted(fa) == sorted(fb)
     assert all(fa[k] != fb[k] for k in fa)
     assert json.loads((b / "dataset.json").read_text())["seed"] == 8
@@ -366,7 +369,7 @@ def test_interrupted_run_resumes_to_identical_dataset(dataset_a, tmp_path, sprit
     meta = json.loads((b / "dataset.json").read_text())
     assert meta["status"] == "interrupted"
     images, anns = both(b)
-    done = sorted(im["id"] - 1 for im in images)
+    done = sorted(im["id"] for im in images)
     journaled = sorted(json.loads(ln)["index"] for ln in journal_lines(b))
     # the COCO files cover exactly the images whose records were written (whole chunks)
     assert done == journaled == list(range(35 // writer.CHUNK * writer.CHUNK))
@@ -375,22 +378,23 @@ def test_interrupted_run_resumes_to_identical_dataset(dataset_a, tmp_path, sprit
         load_coco(b / "annotations" / f"instances_{split}.json")
         full = coco_json(dataset_a, split)
         part = coco_json(b, split)
-        assert part["images"] == [im for im in full["images"] if im["id"] - 1 in done]
+        assert part["images"] == [im for im in full["images"] if im["id"] in done]
         assert part["annotations"] == [a for a in full["annotations"]
-                                       if a["image_id"] - 1 in done]
+                                       if a["image_id"] in done]
     for im in images:
         assert (b / "images" / im["file_name"]).is_file()
         assert (b / "masks" / im["mask_file"]).is_file()
 
     monkeypatch.setattr(writer, "make_record", real)
     # a leftover temporary file, and an image of the journal that went missing
-    tmp = b / "images" / ".000003.jpg.123.tmp"
+    lost = image_path(b, 5)
+    tmp = lost.parent / ".000003.jpg.123.tmp"
     tmp.write_bytes(b"half a jpeg")
-    (b / "images" / "000005.jpg").unlink()
+    lost.unlink()
     rc, _, err = gen(b, sprites_dir, "--resume")
     assert rc == 0, err
     assert not tmp.exists()
-    assert (b / "images" / "000005.jpg").is_file()
+    assert lost.is_file()
     assert json.loads((b / "dataset.json").read_text())["status"] == "complete"
     assert_same_dataset(dataset_a, b)
 
@@ -427,9 +431,8 @@ def test_non_empty_out_is_refused_without_resume_or_overwrite(dataset_a, tmp_pat
     (c / "notes.txt").write_text("mine")
     rc, _, err = gen(c, sprites_dir, "--overwrite", "--n", "5", "--seed", "9")
     assert rc == 0, err
-    assert sorted(p.name for p in (c / "images").iterdir()) == [f"{i:06d}.jpg"
-                                                               for i in range(5)]
-    assert len(list((c / "masks").iterdir())) == 5
+    assert [p.name for p in by_name(c / "images")] == [f"{i:06d}.jpg" for i in range(5)]
+    assert len(by_name(c / "masks")) == 5
     assert len(journal_lines(c)) == 5
     meta = json.loads((c / "dataset.json").read_text())
     assert (meta["seed"], meta["config"]["n"], meta["counts"]["images"]) == (9, 5, 5)

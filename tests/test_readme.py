@@ -5,13 +5,18 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import re
 from pathlib import Path
 
+import pytest
+import torch
 import yaml
 
 from sdcomp.io import yolo
 from sdcomp.scene.config import GeneratorConfig
+
+from .datasets import cli
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -42,3 +47,47 @@ def test_readme_data_yaml_is_what_we_write():
     shown = yaml.safe_load(block_after("`rov/data.yaml` as written:", "yaml"))
     written = yaml.safe_load(yolo.data_yaml(GeneratorConfig().categories))
     assert shown == written
+
+
+@pytest.fixture(scope="module")
+def rov(tmp_path_factory, sprites_dir) -> Path:
+    """A small "rov" folder as the README's snippets expect, with images without objects."""
+    root = tmp_path_factory.mktemp("readme")
+    rc, _, err = cli(["--n", "12", "--size", "160", "--count", "0-1", "--clutter", "0",
+                      "--val-fraction", "0.5",
+                      "--format", "coco,yolo", "--yolo-seg", "--seed", "2", "--workers", "1",
+                      "--no-progress", "--out", root / "rov", "--sprites", sprites_dir])
+    assert rc == 0, err
+    return root
+
+
+def test_coco_detection_example_trains_on_empty_images(rov, monkeypatch, one_torch_thread):
+    """torchvision's CocoDetection wrapped for v2, with fill_empty_target: a Faster R-CNN
+    step on a batch of images without objects (KeyError: 'boxes' without the guard)."""
+    coco = json.loads((rov / "rov/annotations/instances_train.json").read_text())
+    assert any(not [a for a in coco["annotations"] if a["image_id"] == im["id"]]
+               for im in coco["images"])
+    code = block_after("<!-- tested: tests/test_readme.py CocoDetection -->", "python")
+    monkeypatch.chdir(rov)
+    scope: dict = {"__name__": "readme_example"}
+    exec(compile(code, "README.md", "exec"), scope)
+    loss = scope["loss"].detach()
+    assert torch.isfinite(loss) and float(loss) > 0
+    assert all(t["boxes"].dtype == torch.float32 for t in scope["targets"])
+    # the guard is what makes it work: without it an empty image's target has no boxes
+    bare = code.replace(", fill_empty_target])", "])")
+    assert bare != code
+    scope = {"__name__": "readme_example"}
+    with pytest.raises(KeyError, match="boxes"):
+        torch.manual_seed(0)
+        exec(compile(bare.replace("shuffle=True", "shuffle=False"), "README.md", "exec"),
+             scope)
+
+
+def test_supervision_example(rov, monkeypatch):
+    code = block_after("**supervision** (tested)", "python")
+    monkeypatch.chdir(rov)
+    scope: dict = {"__name__": "readme_example"}
+    exec(compile(code, "README.md", "exec"), scope)
+    n_val = len(list((rov / "rov/images/val").iterdir()))
+    assert n_val and len(scope["val"]) == len(scope["val_coco"]) == n_val

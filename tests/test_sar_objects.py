@@ -71,21 +71,25 @@ def test_equal_weights_draw_as_without_weights():
 
 
 def test_one_mesh_objects_draw_the_scenes_they_drew_before_kinds():
-    """(kind, asset, x, y, heading) of the first scene, recorded with sdcomp before the
-    search-and-rescue kinds (commit c79acb8): the BlueROV2's placements and the clutter's
-    places are the same draws; the clutter boat and buoy are now variants of those kinds,
-    chosen by the draw that chose the old ones' paint."""
-    before = [("object", "bluerov2", -0.992092, 5.746131, 131.586),
-              ("object", "bluerov2", 1.057251, -2.953413, 118.5278),
-              ("object", "bluerov2", 2.156978, -0.850109, 45.893),
-              ("clutter", "clutter:log", 10.144475, -1.364786, 288.9382),
-              ("clutter", "clutter:boat", 3.806317, -6.21241, 67.0878),
-              ("clutter", "clutter:log", 7.990547, 1.033157, 353.6292)]
-    now = sample_scene(GeneratorConfig(seed=5, count="2-4", clutter=2.0), 0).placements
+    """(kind, asset, x, y, heading) of the first scene and the seeds drawn last, recorded
+    with sdcomp before the search-and-rescue kinds (main at commit aad2b9a, with the water
+    of issue 19): the BlueROV2's placements and the clutter's places are the same draws;
+    the clutter boat and buoy are now variants of those kinds, chosen by the draw that chose
+    the old ones' paint."""
+    before = [("object", "bluerov2", 7.512362, -0.541531, 123.4787),
+              ("object", "bluerov2", -4.457094, -5.522882, 124.9442),
+              ("clutter", "clutter:buoy", -7.015063, -0.868259, 20.7691),
+              ("clutter", "clutter:buoy", 7.314866, -8.597587, 356.982),
+              ("clutter", "clutter:log", -7.969311, 2.417629, 220.8747)]
+    scene = sample_scene(GeneratorConfig(seed=5, count="2-4", clutter=2.0), 0)
+    now = scene.placements
     assert len(now) == len(before)
     for p, (role, asset, x, y, heading) in zip(now, before, strict=True):
         assert p.role.value == role and p.asset.startswith(asset)
         assert (round(p.x, 6), round(p.y, 6), round(p.heading, 4)) == (x, y, heading)
+    # the water's last draw (before the placements) and the scene's last (after the
+    # camera's look, blur and quality) in place too
+    assert scene.water.seed == 423409760 and scene.seeds.land == (1181678423, 3)
 
 
 def test_clutter_of_a_kind_is_its_variants_unshaded():
@@ -154,7 +158,8 @@ def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
         a, b = sample_scene(paired, i), sample_scene(apart, i)
         seen.add((a.camera.altitude, a.camera.pitch))
         assert a.camera.heading == b.camera.heading  # the draws after it stay in place
-        assert a.water_rgb == b.water_rgb and a.turbidity == b.turbidity
+        # the water is drawn before the placements (its exposure after them, by the look)
+        assert replace(a.water, exposure_target=0.0) == replace(b.water, exposure_target=0.0)
     assert seen == set(pairs)
     with pytest.raises(SettingError) as err:
         GeneratorConfig(altitude=alts, pitch="20-90", pair_pitch=True)

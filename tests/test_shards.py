@@ -17,7 +17,15 @@ from sdcomp.cli import merge as merge_mod
 from sdcomp.run import local as writer
 from sdcomp.run.shards import parse_shard, shard_folder, shard_range
 
-from .datasets import assert_identical, check_intact, cli, files, generate, one_line_error
+from .datasets import (
+    assert_identical,
+    by_name,
+    check_intact,
+    cli,
+    files,
+    generate,
+    one_line_error,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
@@ -61,8 +69,7 @@ def test_three_shards_merged_equal_a_plain_run(plain, tmp_path, sprites_dir):
         meta = json.loads((d / "dataset.json").read_text())
         assert meta["shard"] == f"{k}/3" and meta["status"] == "complete"
         rng = shard_range(40, k, 3)
-        assert sorted(p.name for p in (d / "images").iterdir()) == [
-            f"{i:06d}.jpg" for i in rng]
+        assert [p.name for p in by_name(d / "images")] == [f"{i:06d}.jpg" for i in rng]
         assert check_intact(d) == len(rng)  # each shard is a valid dataset of its images
         dirs.append(d)
     out = tmp_path / "merged"
@@ -133,7 +140,7 @@ def test_shards_with_yolo_labels_merge_to_a_plain_run(tmp_path, sprites_dir):
     out = tmp_path / "merged"
     rc, _, err = merge(*dirs, "--out", out, "--no-progress")
     assert rc == 0, err
-    assert len(list((out / "labels").iterdir())) == 7
+    assert len(by_name(out / "labels")) == 7
     assert_identical(plain, out)
 
 

@@ -11,6 +11,8 @@ import sys
 import numpy as np
 import pytest
 import torch
+from torchvision import tv_tensors
+from torchvision.transforms import v2
 
 from sdcomp.cli.generate import main
 from sdcomp.errors import UserError, run_cli
@@ -53,7 +55,10 @@ def test_item_format_and_agreement_with_generator(dataset, sprites_dir):
             a["category_id"] for a in s.annotations]
         assert t["masks"].shape == (n, 96, 96) and t["masks"].dtype == torch.uint8
         assert torch.equal(t["masks"].bool(), torch.from_numpy(s.masks))
-        assert t["image_id"] == i + 1
+        assert t["image_id"] == i  # the number in the file name, COCO's image id
+        assert type(image) is tv_tensors.Image and type(t["masks"]) is tv_tensors.Mask
+        assert type(t["boxes"]) is tv_tensors.BoundingBoxes
+        assert t["boxes"].format.name == "XYXY" and tuple(t["boxes"].canvas_size) == (96, 96)
         assert t["area"].dtype == torch.float32
         assert t["area"].tolist() == [float(a["area"]) for a in s.annotations]
         assert t["iscrowd"].dtype == torch.int64 and t["iscrowd"].tolist() == [0] * n
@@ -129,6 +134,7 @@ class Marked(torch.Tensor):
 def test_batch_pickles_its_tensors_as_one_buffer_per_dtype(dataset):
     """What a DataLoader worker sends: a collated batch arrives as a plain (images, targets)
     tuple with the same values, its plain tensors views of one shared buffer per dtype;
+    tv_tensors come back as the same tv_tensors (their data in the shared buffers too); other
     tensor subclasses and tensors that need gradients travel as they are."""
     import io
     import pickle
@@ -152,8 +158,12 @@ def test_batch_pickles_its_tensors_as_one_buffer_per_dtype(dataset):
                for gi, gt, (wi, wt) in zip(images, targets, items, strict=True))
     assert type(targets[1]["extra"]["marked"]) is Marked
     assert targets[1]["extra"]["grad"].requires_grad
+    assert all(type(im) is tv_tensors.Image for im in images)
+    assert all(type(t["boxes"]) is tv_tensors.BoundingBoxes and type(t["masks"]) is
+               tv_tensors.Mask and tuple(t["boxes"].canvas_size) == (96, 96) for t in targets)
+    packed = (torch.Tensor, tv_tensors.Image, tv_tensors.Mask, tv_tensors.BoundingBoxes)
     plain = [t for t in (*images, *(v for tg in targets for v in tg.values()))
-             if type(t) is torch.Tensor and not t.requires_grad]
+             if type(t) in packed and not t.requires_grad]
     storages = {t.untyped_storage().data_ptr() for t in plain}
     assert len(storages) == len({t.dtype for t in plain}) < len(plain)
 
@@ -165,7 +175,7 @@ def test_dataloader_spawned_workers_get_a_small_pickle(dataset):
                                          collate_fn=collate, multiprocessing_context="spawn",
                                          timeout=300)
     seen = [item for images, targets in loader for item in zip(images, targets, strict=True)]
-    assert [t["image_id"] for _, t in seen] == [3, 18, 24]
+    assert [t["image_id"] for _, t in seen] == [2, 17, 23]
     assert all(same(item, dataset[i]) for item, i in zip(seen, (2, 17, 23), strict=True))
 
 
@@ -183,7 +193,7 @@ def test_transforms_hook(sprites_dir):
     plain = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir)
     flipped = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, transforms=flip)
     (a, ta), (b, tb) = plain[4], flipped[4]
-    assert calls == [5]
+    assert calls == [4]
     assert torch.equal(b, a.flip(-1)) and torch.equal(tb["masks"], ta["masks"].flip(-1))
 
 
@@ -206,9 +216,9 @@ def test_generated_coco_matches_on_the_fly(tmp_path, dataset, sprites_dir, fmt):
         for k in range(len(ds)):
             image, t = ds[k]
             both[t["image_id"]] = (image, t)
-    assert sorted(both) == list(range(1, 21))
+    assert sorted(both) == list(range(20))
     for image_id, item in both.items():
-        assert same(item, dataset[image_id - 1])  # PNG images: bit-exact
+        assert same(item, dataset[image_id])  # PNG images: bit-exact
     assert len(GeneratedCoco(out, "all")) == 20
     image8, t8 = GeneratedCoco(out, "all", image_dtype=torch.uint8)[5]
     image_f, tf = GeneratedCoco(out, "all")[5]
@@ -248,3 +258,63 @@ def test_faster_rcnn_trains(dataset):
     print("\nFaster R-CNN losses:", " ".join(f"{v:.3f}" for v in losses), file=sys.stderr)
     assert all(np.isfinite(losses))
     assert np.mean(losses[-3:]) < 0.8 * np.mean(losses[:3])
+
+
+V2 = {"flip": (v2.RandomHorizontalFlip(p=1.0), 0.0),
+      "vflip": (v2.RandomVerticalFlip(p=1.0), 0.0),
+      "rotate90": (v2.RandomAffine(degrees=(90.0, 90.0)), 0.0),
+      "affine": (v2.RandomAffine(degrees=0.0, translate=(0.2, 0.2), scale=(0.8, 1.3)), 1.5),
+      "resize": (v2.Resize((150, 130)), 150 / 96),
+      "crop": (v2.RandomCrop(64), None)}  # None: a cut object's box is clamped, not shrunk
+
+
+@pytest.mark.parametrize("name", list(V2))
+def test_v2_transforms_move_boxes_and_masks_with_the_image(sprites_dir, name):
+    """torchvision v2 geometric transforms given as ``transforms``: boxes still equal their
+    masks' extents afterwards (to within the transform's resampling of the mask); a crop
+    clamps the box of an object it cuts, which then still contains the mask's extent."""
+    transform, tol = V2[name]
+    pipeline = v2.Compose([transform, v2.SanitizeBoundingBoxes(min_size=1)])
+    torch.manual_seed(0)
+    plain = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir)
+    moved = SyntheticDetection(CONFIG, 30, sprites_dir=sprites_dir, transforms=pipeline)
+    checked = 0
+    for i in range(12):
+        image, t = moved[i]
+        assert type(image) is tv_tensors.Image and t["boxes"].dtype == torch.float32
+        assert tuple(t["boxes"].canvas_size) == tuple(image.shape[-2:]) == tuple(
+            t["masks"].shape[-2:])
+        assert len(t["boxes"]) == len(t["masks"]) == len(t["labels"])
+        for box, mask in zip(t["boxes"], t["masks"], strict=True):
+            ys, xs = torch.nonzero(mask, as_tuple=True)
+            if len(xs) == 0:
+                continue
+            extent = torch.tensor([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1]).float()
+            if tol is None:
+                assert (box[:2] <= extent[:2]).all() and (box[2:] >= extent[2:]).all()
+                assert (box >= 0).all() and (box[2:] <= 64).all()
+            else:
+                assert torch.allclose(box, extent, atol=tol + 1e-4), (i, box, extent)
+            checked += 1
+        if name == "flip":
+            assert torch.equal(image, plain[i][0].flip(-1))
+    assert checked > 5
+
+
+def test_resize_keeps_fractional_boxes(tmp_path, sprites_dir):
+    """COCO boxes are written as floats, so a v2 resize of a read-back box is not truncated
+    to whole pixels."""
+    out = tmp_path / "ds"
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        rc = run_cli(main, ["--config", str(_toml(tmp_path)), "--n", "6", "--out", str(out),
+                            "--sprites", str(sprites_dir), "--workers", "1"])
+    assert rc == 0
+    ds = GeneratedCoco(out, "all", transforms=v2.Resize((97, 97)))
+    raw = GeneratedCoco(out, "all")
+    n = 0
+    for k in range(len(ds)):
+        (_, t), (_, r) = ds[k], raw[k]
+        assert t["boxes"].dtype == torch.float32
+        assert torch.allclose(t["boxes"], r["boxes"] * 97 / 96, atol=1e-4)
+        n += len(r["boxes"])
+    assert n > 0

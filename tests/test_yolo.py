@@ -1,6 +1,7 @@
 """YOLO export: label files against the COCO annotations of the same dataset, the layout
-Ultralytics reads (labels/ beside images/, ./-relative split lists, data.yaml), polygons
-traced from the masks, images unchanged by the format options, resume, yolo-only runs."""
+Ultralytics and supervision read (per-split images/ and labels/ folders, ./-relative split
+lists, data.yaml), polygons that their own rasterisers draw back to our masks, images
+unchanged by the format options, resume, yolo-only runs."""
 
 from __future__ import annotations
 
@@ -15,10 +16,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sdcomp.io.png import decode_png16
-from sdcomp.io.yolo import box_line, data_yaml, mask_polygon
+from sdcomp.io.yolo import VERTEX_INSET, box_line, data_yaml, mask_polygon
 from sdcomp.report.stats import dataset_stats
 
-from .datasets import cli
+from .datasets import cli, files
 
 BASE = ["--n", "40", "--size", "96", "--clutter", "0", "--altitude", "3-6", "--count", "0-3",
         "--seed", "11", "--no-progress"]
@@ -52,38 +53,24 @@ def coco(folder: Path) -> tuple[dict, dict, dict]:
 
 
 def labels(folder: Path, file_name: str) -> list[list[float]]:
-    text = (folder / "labels" / (Path(file_name).stem + ".txt")).read_text()
+    """The rows of the label file of the image ``file_name`` ("train/000003.jpg")."""
+    text = (folder / "labels" / Path(file_name).with_suffix(".txt")).read_text()
     assert text == "" or text.endswith("\n")
     return [[float(v) for v in line.split()] for line in text.splitlines()]
-
-
-def filled_area(mask: np.ndarray) -> int:
-    """Pixels of the mask with its holes (background not 4-connected to the outside) filled."""
-    h, w = mask.shape
-    pad = np.zeros((h + 2, w + 2), np.uint8)
-    pad[1:-1, 1:-1] = mask
-    outside = pad.copy()
-    cv2.floodFill(outside, np.zeros((h + 4, w + 4), np.uint8), (0, 0), 2, flags=4)
-    return int((outside[1:-1, 1:-1] != 2).sum())
-
-
-def shoelace(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
 def test_format_options_do_not_change_images_or_coco(datasets):
     for name in ("boxes", "seg"):
         for sub in ("images", "masks"):
-            a = sorted((datasets["coco"] / sub).iterdir())
-            b = sorted((datasets[name] / sub).iterdir())
-            assert [p.name for p in a] == [p.name for p in b]
-            assert all(p.read_bytes() == q.read_bytes() for p, q in zip(a, b, strict=True))
+            a, b = files(datasets["coco"] / sub), files(datasets[name] / sub)
+            assert a == b and len(a) == 40
         for s in ("train", "val"):
             f = f"annotations/instances_{s}.json"
             assert (datasets["coco"] / f).read_bytes() == (datasets[name] / f).read_bytes()
     assert not (datasets["coco"] / "labels").exists()
     assert not (datasets["coco"] / "data.yaml").exists()
+    assert sorted(p.name for p in datasets["coco"].iterdir()) == [
+        "annotations", "dataset.json", "images", "masks", "records.jsonl"]
     meta = json.loads((datasets["seg"] / "dataset.json").read_text())
     assert meta["config"]["format"] == ["coco", "yolo"] and meta["config"]["yolo_seg"] is True
     assert meta["layout"]["yolo_data"] == "data.yaml"
@@ -102,17 +89,20 @@ def test_ultralytics_layout(datasets):
         assert lines == sorted(lines) and lines
         for line in lines:
             # Ultralytics reads "./x" relative to the list file's folder
-            assert line.startswith("./images/")
+            assert line.startswith(f"./images/{s}/")
             assert (folder / line[2:]).is_file()
-            listed[Path(line).name] = s
-    assert listed == split  # every image once, in its COCO split
-    # one label file per image, where Ultralytics looks: /images/ -> /labels/, .txt
-    stems = sorted(p.stem for p in (folder / "images").iterdir())
-    assert sorted(p.stem for p in (folder / "labels").iterdir()) == stems
+            listed[line.removeprefix("./images/")] = s
+    assert listed == split  # every image once, in its COCO split, in its split's folder
+    for s in ("train", "val"):
+        # one label file per image, where Ultralytics looks: /images/ -> /labels/, .txt
+        stems = sorted(p.stem for p in (folder / "images" / s).iterdir())
+        assert sorted(p.stem for p in (folder / "labels" / s).iterdir()) == stems
+    # COCO ids are the numbers in the file names (what Ultralytics' save_json writes)
+    assert all(int(Path(im["file_name"]).stem) == i for i, im in images.items())
     empty = [im for im in images.values() if not anns[im["id"]]]
     assert empty, "the dataset should contain empty images (--count 0-3)"
     for im in empty:
-        assert (folder / "labels" / (Path(im["file_name"]).stem + ".txt")).read_bytes() == b""
+        assert labels(folder, im["file_name"]) == []
 
 
 def matched_rows(folder: Path):
@@ -142,9 +132,29 @@ def test_boxes_agree_with_coco(datasets):
     assert n > 20
 
 
+def fill_like_consumers(poly: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, ...]:
+    """The masks Ultralytics (vertices truncated) and supervision (rounded) draw from a
+    (K, 2) pixel polygon: ``cv2.fillPoly`` of the integer vertices, as both do."""
+    out = []
+    for ints in (poly.astype(np.int32), np.round(poly).astype(np.int32)):
+        m = np.zeros(shape, np.uint8)
+        cv2.fillPoly(m, [ints], 1)
+        out.append(m.astype(bool))
+    return tuple(out)
+
+
+def holes(mask: np.ndarray) -> int:
+    """Holes of a mask: background regions (4-connected) not touching its border."""
+    h, w = mask.shape
+    pad = np.ones((h + 2, w + 2), np.uint8)
+    pad[1:-1, 1:-1] = ~mask
+    n, lab = cv2.connectedComponents(pad, connectivity=4)
+    return n - 2 if n > 1 else 0  # the outside, then the holes (label 0 is the mask)
+
+
 def test_polygons_agree_with_coco_and_masks(datasets):
     folder = datasets["seg"]
-    n = 0
+    n = exact = 0
     for im, pairs in matched_rows(folder):
         W, H = im["width"], im["height"]
         inst = decode_png16((folder / "masks" / im["mask_file"]).read_bytes())
@@ -154,29 +164,37 @@ def test_polygons_agree_with_coco_and_masks(datasets):
             poly = np.array(row[1:]).reshape(-1, 2) * [W, H]
             x, y, bw, bh = ann["bbox"]
             lo, hi = poly.min(axis=0), poly.max(axis=0)
-            # the polygon's extent is the COCO box (pixel edges) to within the 6 decimals
-            assert [*lo, *(hi - lo)] == pytest.approx([x, y, bw, bh], abs=2e-6 * max(W, H))
+            # the extent: the box's left/top edge, half a pixel short on the right/bottom
+            assert lo == pytest.approx([x + VERTEX_INSET, y + VERTEX_INSET], abs=1e-4)
+            assert hi == pytest.approx([x + bw - 0.5 - VERTEX_INSET,
+                                        y + bh - 0.5 - VERTEX_INSET], abs=1e-4)
             mask = inst == ann["instance_id"]
-            assert int(mask.sum()) == ann["area"]
-            # area along the pixel edges: the mask's, with any holes filled
-            assert shoelace(poly) == pytest.approx(filled_area(mask), abs=0.01 * ann["area"])
+            for drawn in fill_like_consumers(poly, (H, W)):
+                assert (drawn >= mask).all()  # never a pixel lost
+                exact += bool((drawn == mask).all())
             n += 1
-    assert n > 20
+    assert n > 20 and exact >= 0.9 * 2 * n
 
 
 def test_mask_polygon_shapes():
     m = np.zeros((9, 11), bool)
-    m[2:5, 3:7] = True  # a 4 x 3 rectangle: its four corners exactly
+    m[2:5, 3:7] = True  # a 4 x 3 rectangle: vertices inside its corner pixels
     p = mask_polygon(m)
-    assert sorted(map(tuple, p.tolist())) == [(3, 2), (3, 5), (7, 2), (7, 5)]
+    lo, hi = VERTEX_INSET, 0.5 - VERTEX_INSET
+    assert sorted(map(tuple, p.tolist())) == [(3 + lo, 2 + lo), (3 + lo, 4 + hi),
+                                              (6 + hi, 2 + lo), (6 + hi, 4 + hi)]
     one = mask_polygon(np.ones((1, 1), bool), 5, 8)  # one pixel at (5, 8)
-    assert sorted(map(tuple, one.tolist())) == [(5, 8), (5, 9), (6, 8), (6, 9)]
+    assert sorted(map(tuple, one.tolist())) == [(5 + lo, 8 + lo), (5 + lo, 8 + hi),
+                                                (5 + hi, 8 + lo), (5 + hi, 8 + hi)]
+    ring = np.ones((7, 8), bool)
+    ring[2:4, 3:5] = False  # a hole: kept
+    for drawn in fill_like_consumers(mask_polygon(ring), ring.shape):
+        assert (drawn == ring).all()
     two = np.zeros((6, 10), bool)
     two[1:3, 1:3] = True
-    two[3:5, 6:9] = True  # two pieces: joined by a zero-width bridge, areas add
-    p = mask_polygon(two)
-    assert shoelace(p) == pytest.approx(4 + 6)
-    assert p.min(axis=0).tolist() == [1, 1] and p.max(axis=0).tolist() == [9, 5]
+    two[3:5, 6:9] = True  # two pieces: joined by a zero-width bridge, drawn as a line
+    for drawn in fill_like_consumers(mask_polygon(two), two.shape):
+        assert (drawn >= two).all() and (drawn & ~two).sum() <= 4
     with pytest.raises(ValueError):
         mask_polygon(np.zeros((3, 3), bool))
 
@@ -184,6 +202,9 @@ def test_mask_polygon_shapes():
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.floats(0.2, 0.8))
 def test_mask_polygon_random_masks(seed, density):
+    """Drawn as the consumers draw it, a polygon never loses a pixel of its mask, and gives
+    exactly a mask in one piece without holes; its extent is the mask's box with the
+    vertices inside their pixels."""
     rng = np.random.default_rng(seed)
     m = cv2.dilate((rng.random((14, 17)) < density * 0.3).astype(np.uint8),
                    np.ones((2, 2), np.uint8)).astype(bool)
@@ -191,9 +212,13 @@ def test_mask_polygon_random_masks(seed, density):
         m[3, 4] = True
     p = mask_polygon(m)
     ys, xs = np.nonzero(m)
-    assert p.min(axis=0).tolist() == [xs.min(), ys.min()]
-    assert p.max(axis=0).tolist() == [xs.max() + 1, ys.max() + 1]
-    assert shoelace(p) == pytest.approx(filled_area(m))
+    assert np.floor(p.min(axis=0)).tolist() == [xs.min(), ys.min()]
+    assert np.floor(p.max(axis=0)).tolist() == [xs.max(), ys.max()]
+    one_piece = cv2.connectedComponents(m.astype(np.uint8), connectivity=8)[0] == 2
+    for drawn in fill_like_consumers(p, m.shape):
+        assert (drawn >= m).all()
+        if one_piece and holes(m) == 0:
+            assert (drawn == m).all()
 
 
 def test_box_line_and_yaml():
@@ -216,16 +241,24 @@ def test_resume_redraws_a_missing_label_and_yolo_only(datasets, tmp_path, sprite
     s = dataset_stats(folder)  # read from the journal instead
     assert sum(v["images"] for v in s["splits"].values()) == 12
     assert s["categories"] == {1: "bluerov2"}
-    ref = {p.name: p.read_bytes() for p in (datasets["boxes"] / "labels").iterdir()}
-    got = {p.name: p.read_bytes() for p in (folder / "labels").iterdir()}
+    assert not (folder / "annotations").exists()  # no empty COCO folder either
+    ref = files(datasets["boxes"] / "labels")
+    got = files(folder / "labels")
     assert got == {k: ref[k] for k in got} and len(got) == 12
-    (folder / "labels" / "000003.txt").unlink()
+    lost = next(folder.glob("labels/*/000003.txt"))
+    lost.unlink()
     rc, _, err = cli([*argv, "--resume"])
     assert rc == 0, err
-    assert (folder / "labels" / "000003.txt").read_bytes() == ref["000003.txt"]
+    assert lost.read_bytes() == ref[lost.relative_to(folder / "labels").as_posix()]
     # resuming with other label options is refused, naming the option
     rc, _, err = cli([*argv, "--resume", "--yolo-seg"])
     assert rc == 2 and "yolo_seg" in err
+
+
+def test_yolo_seg_needs_yolo_output(tmp_path):
+    rc, _, err = cli(["--n", "2", "--yolo-seg", "--out", tmp_path / "x"])
+    assert rc == 2 and "--yolo-seg" in err and "--format yolo" in err
+    assert err.count("\n") == 1 and not (tmp_path / "x").exists()
 
 
 @pytest.mark.parametrize("value", ["voc", "coco,json", ""])

@@ -6,7 +6,8 @@ at 10 m and 40 m, straight down and oblique (gimbal pitch 45 degrees), with the 
 
 Each cell is the object as it appears in such a frame, cropped around its mask with a
 margin and scaled to the cell (its box size in the full frame is written under it, in
-pixels): blue water (turbidity 0.5), wind 3 m/s, the sun at 55 degrees, no camera effects.
+pixels): blue water (coastal type, turbidity 0.5), wind 3 m/s, a clear sky with the sun at 55
+degrees, no camera effects (the clean look: the renderer's image).
 The object stands at the image centre, heading 30 degrees; a window of the full frame
 around it is rendered (same focal length: the same pixels). A variant whose top stands more
 than half the altitude above the water is not drawn there by the generator (a sailboat's mast
@@ -26,13 +27,19 @@ import numpy as np
 from sdcomp import Generator, GeneratorConfig
 from sdcomp.assets import sar
 from sdcomp.scene.camera import CameraModel, CameraPose, ground_point
+from sdcomp.scene.look_table import clean_look
 from sdcomp.scene.presets import preset
-from sdcomp.scene.scene import Effects, Placement, Role
-from sdcomp.scene.water import attenuation
+from sdcomp.scene.scene import Placement, Role
+from sdcomp.scene.water import WaterParams, constituents
 
 VIEWS = ((10.0, 90.0), (10.0, 45.0), (40.0, 90.0), (40.0, 45.0))  # altitude m, pitch deg
 CELL = 200  # pixels
-NO_EFFECTS = Effects(0.0, (1.0, 1.0, 1.0), 0.0, None, None, 0.0, 95)
+TURBIDITY = 0.5
+CHL, CDOM, TSM = constituents("coastal", TURBIDITY)
+#: the water of every cell: blue (coastal), calm, deep, a clear sky
+WATER = WaterParams(name="coastal", water_type="coastal", chl=CHL, cdom=CDOM, tsm=TSM,
+                    turbidity=TURBIDITY, patchiness=0.0, wind=3.0, sky="clear",
+                    sun_elevation=55.0, sun_azimuth=135.0)
 WINDOWS = (256, 512, 1024, 2048, 3840)  # square frame windows, pixels
 
 
@@ -54,10 +61,9 @@ def cell(gen: Generator, asset: str, span: float, altitude: float, pitch: float
     pose = CameraPose(altitude, pitch, 0.0)
     x, y = ground_point(model, pose, size / 2, size / 2) or (0.0, 0.0)
     base = gen.scene(0)
-    scene = replace(base, model=model, camera=pose, water_name="blue",
-                    water_rgb=(24, 63, 111), turbidity=0.5, attenuation=attenuation(0.5),
-                    wind=3.0, floor_depth=10.0, sun_elevation=55.0, sun_azimuth=135.0,
-                    ambient=0.4, shore=None, hills=None, effects=NO_EFFECTS,
+    scene = replace(base, model=model, camera=pose, water=WATER, shore=None, hills=None,
+                    look=clean_look(size, size, model.fx, model.fy), defocus_blur=None,
+                    jpeg_quality=95,
                     placements=(Placement(Role.OBJECT, asset, 1, x, y, 30.0, 0.0, 0.0, 0.0),))
     frame = gen.render_scene(scene)
     ys, xs = np.nonzero(frame.instances)

@@ -6,8 +6,18 @@ objects, and their COCO-style records.
 - :mod:`~sdcomp.annotate.rle`: COCO run-length encoding.
 """
 
-from .masks import MASK_THRESHOLD, AnnotationRule, Frame, Instance, instance_map
-from .records import coco_annotations, image_meta, object_annotations
+from .masks import (
+    MASK_THRESHOLD,
+    AnnotationRule,
+    Frame,
+    Instance,
+    amodal_masks,
+    instance_map,
+    label_map,
+    measure,
+)
+from .records import camera_record, coco_annotations, image_meta, object_annotations
 
-__all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "instance_map",
-           "object_annotations", "coco_annotations", "image_meta"]
+__all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "amodal_masks",
+           "instance_map", "label_map", "measure",
+           "object_annotations", "coco_annotations", "image_meta", "camera_record"]

@@ -7,14 +7,16 @@ pixel belongs to an object's mask when the object's weight there is at least
 :data:`MASK_THRESHOLD`: the object supplies at least half of the pixel's colour. So the mask
 excludes what other objects hide, what murky water hides, and everything outside the frame; at
 most one object can pass the rule for a pixel except in exact ties, which go to the nearer
-object. The bbox and area of an annotation are those of its final mask; an object of interest
-with fewer than ``min_visible_px`` mask pixels is not annotated and is counted as dropped.
-Blur and noise come after and do not change masks.
+object. The bbox and area of an annotation are those of its final mask (after the camera's
+lens has moved it: :func:`measure`); an object of interest with fewer than ``min_visible_px``
+mask pixels, or cut by the frame's edge with less than ``min_in_frame`` of its silhouette
+inside the frame, is not annotated and is counted as dropped. Blur, noise and the camera's
+other stages come after and do not change masks.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,11 +32,14 @@ MASK_RULE = (f"a pixel belongs to an object when the object supplies at least "
 
 @dataclass(frozen=True)
 class AnnotationRule:
-    """What is annotated: objects with at least ``min_visible_px`` mask pixels; with
-    ``amodal``, also each object's whole projected silhouette."""
+    """What is annotated: objects with at least ``min_visible_px`` mask pixels and, when cut
+    by the frame's edge, at least ``min_in_frame`` of their projected silhouette inside it
+    (no slivers at the edges); with ``amodal``, also each object's whole projected
+    silhouette."""
 
     min_visible_px: int = 4
     amodal: bool = False
+    min_in_frame: float = 0.0
 
 
 @dataclass
@@ -48,74 +53,143 @@ class Instance:
     bbox: tuple[int, int, int, int]  # x, y, w, h pixels
     amodal: np.ndarray | None = None  # (H, W) bool, only when asked for
     amodal_area: int = 0
+    silhouette_area: int = 0  # pixels of the unoccluded in-frame silhouette (visibility)
 
 
 @dataclass
 class Frame:
     """A rendered and annotated image: ``image`` (H, W, 3) uint8 RGB, ``instances`` (H, W)
     uint16 ids (0 = none), the annotated ``objects`` and the count of objects of interest
-    ``dropped`` for having too few visible pixels; ``scene`` is what it shows."""
+    ``dropped`` (too few visible pixels, or cut by the frame's edge); ``scene`` is what it
+    shows, ``camera`` what the camera stage did (its info dict: intrinsics ``K``,
+    distortion ``dist``, ``zoom``, ``stages``; empty when none ran)."""
 
     image: np.ndarray
     instances: np.ndarray
     objects: list[Instance]
     dropped: int
     scene: Scene
+    camera: dict = field(default_factory=dict)  # what the camera stage did (apply_camera)
 
     @property
     def gsd(self) -> float:
-        """Metres per pixel (along x) at the image centre."""
-        return self.scene.gsd
+        """Metres per pixel (along x) at the image centre of the recorded image (the lens's
+        zoom magnifies it)."""
+        return self.scene.gsd / float(self.camera.get("zoom", 1.0))
 
 
 def instance_map(scene: Scene, layers: list[Layer], rule: AnnotationRule
                  ) -> tuple[np.ndarray, list[Instance], int]:
     """(instances (H, W) uint16, the annotated objects in placement order with ids 1..N,
     the number of objects of interest dropped) of the composited ``layers`` (far to near,
-    final weights) of ``scene``."""
+    final weights) of ``scene``, as the renderer's pinhole image has them:
+    :func:`label_map` then :func:`measure` (the generator records the camera's image in
+    between, whose lens moves the labels)."""
+    instances, objs = label_map(scene, layers)
+    amodal = amodal_masks(instances.shape, objs) if rule.amodal else None
+    out, dropped = measure(instances, objs, rule, amodal, moved=False)
+    return instances, out, dropped + scene.count(Role.OBJECT) - len(objs)
+
+
+def label_map(scene: Scene, layers: list[Layer]) -> tuple[np.ndarray, list[Layer]]:
+    """(labels (H, W) uint16, the layers of the objects of interest in placement order):
+    the k-th of them labels ``k + 1`` the pixels where it passes the mask rule
+    (:data:`MASK_THRESHOLD`), nearer objects over farther ones (ties go to the nearer)."""
     model = scene.model
-    instances = np.zeros((model.height, model.width), np.uint16)
-    objs = [lay for lay in layers if lay.role is Role.OBJECT]
-    ids = {lay.placement: k + 1 for k, lay in
-           enumerate(sorted(objs, key=lambda lay: lay.placement))}
-    for lay in objs:  # far to near: ties go to the nearer object
+    labels = np.zeros((model.height, model.width), np.uint16)
+    objs = sorted((lay for lay in layers if lay.role is Role.OBJECT),
+                  key=lambda lay: lay.placement)
+    ids = {lay.placement: k + 1 for k, lay in enumerate(objs)}
+    for lay in layers:  # far to near
+        if lay.role is Role.OBJECT:
+            x0, y0, x1, y1 = lay.roi
+            labels[y0:y1, x0:x1][lay.weight >= MASK_THRESHOLD] = ids[lay.placement]
+    return labels, objs
+
+
+def amodal_masks(shape: tuple[int, int], objs: list[Layer]) -> np.ndarray:
+    """(N, H, W) bool: each object's whole projected silhouette in the frame (coverage at
+    least :data:`MASK_THRESHOLD`, hidden or not)."""
+    out = np.zeros((len(objs),) + tuple(shape), bool)
+    for k, lay in enumerate(objs):
         x0, y0, x1, y1 = lay.roi
-        sel = lay.weight >= MASK_THRESHOLD
-        instances[y0:y1, x0:x1][sel] = ids[lay.placement]
-    out = []
-    next_id = 0
+        out[k, y0:y1, x0:x1] = lay.alpha >= MASK_THRESHOLD
+    return out
+
+
+def truncated(layer: Layer, shape: tuple[int, int]) -> float:
+    """The fraction of ``layer``'s projected silhouette (its coverage) inside a frame of
+    ``shape`` (H, W); 1 for a layer that does not reach the frame's edge."""
+    x0, y0, x1, y1 = layer.roi
+    h, w = shape
+    if x0 > 0 and y0 > 0 and x1 < w and y1 < h:
+        return 1.0
+    return min(float(layer.alpha.sum()) / max(layer.full_area, 1e-9), 1.0)
+
+
+def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
+            amodal: np.ndarray | None, moved: bool) -> tuple[list[Instance], int]:
+    """The annotated objects of a label map (:func:`label_map`, possibly ``moved`` by the
+    camera's lens) with their boxes and areas, and how many were dropped: those with fewer
+    than ``rule.min_visible_px`` pixels, and those cut by the frame's edge with less than
+    ``rule.min_in_frame`` of their silhouette inside it. ``labels`` is renumbered in place
+    (kept objects 1..N in order, dropped ones 0); ``amodal`` (K, H, W) bool, when given,
+    goes with its objects."""
+    stats = _label_stats(labels, objs, moved)
+    out: list[Instance] = []
     relabel = np.zeros(len(objs) + 1, np.uint16)
-    for lay in sorted(objs, key=lambda lay: lay.placement):
-        old = ids[lay.placement]
-        x0, y0, x1, y1 = lay.roi
-        region = instances[y0:y1, x0:x1] == old
-        area = int(region.sum())
-        if area < rule.min_visible_px:
+    for k, lay in enumerate(objs):
+        area, bbox = stats[k]
+        if area < rule.min_visible_px or truncated(lay, labels.shape) < rule.min_in_frame:
             continue
-        next_id += 1
-        relabel[old] = next_id
-        ys, xs = np.nonzero(region)
-        bbox = (x0 + int(xs.min()), y0 + int(ys.min()), int(xs.max() - xs.min()) + 1,
-                int(ys.max() - ys.min()) + 1)
-        inst = Instance(next_id, lay.placement, lay.category_id, area, bbox)
-        if rule.amodal:
-            full = np.zeros_like(instances, dtype=bool)
-            full[y0:y1, x0:x1] = lay.alpha >= MASK_THRESHOLD
-            inst.amodal = full
-            inst.amodal_area = int(full.sum())
+        relabel[k + 1] = len(out) + 1
+        inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox)
+        inst.silhouette_area = (int(np.count_nonzero(amodal[k])) if amodal is not None else
+                                int(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)))
+        if amodal is not None:
+            inst.amodal = amodal[k]
+            inst.amodal_area = int(amodal[k].sum())
         out.append(inst)
     if len(out) != len(objs):
-        _renumber(instances, objs, ids, relabel)
-    return instances, out, scene.count(Role.OBJECT) - len(out)
+        if moved:
+            labels[:] = relabel[labels]
+        else:
+            _renumber(labels, objs, relabel)
+    return out, len(objs) - len(out)
 
 
-def _renumber(instances: np.ndarray, objs: list[Layer], ids: dict[int, int],
-              relabel: np.ndarray) -> None:
+def _label_stats(labels: np.ndarray, objs: list[Layer], moved: bool
+                 ) -> list[tuple[int, tuple[int, int, int, int]]]:
+    """(area, bbox (x, y, w, h)) of labels 1..K: inside each object's drawn box when the
+    labels have not ``moved`` (frames can be huge), else from all labelled pixels."""
+    out: list[tuple[int, tuple[int, int, int, int]]] = []
+    if moved:
+        ys, xs = np.nonzero(labels)
+        ids = labels[ys, xs]
+        for k in range(1, len(objs) + 1):
+            sel = ids == k
+            out.append(_box(xs[sel], ys[sel], 0, 0))
+        return out
+    for k, lay in enumerate(objs):
+        x0, y0, x1, y1 = lay.roi
+        ys, xs = np.nonzero(labels[y0:y1, x0:x1] == k + 1)
+        out.append(_box(xs, ys, x0, y0))
+    return out
+
+
+def _box(xs: np.ndarray, ys: np.ndarray, x0: int, y0: int
+         ) -> tuple[int, tuple[int, int, int, int]]:
+    if len(xs) == 0:
+        return 0, (0, 0, 0, 0)
+    return len(xs), (x0 + int(xs.min()), y0 + int(ys.min()), int(xs.max() - xs.min()) + 1,
+                     int(ys.max() - ys.min()) + 1)
+
+
+def _renumber(labels: np.ndarray, objs: list[Layer], relabel: np.ndarray) -> None:
     """Give the kept objects their new ids (dropped ones 0), inside each object's box only
     (frames can be huge), in increasing old id: new ids never exceed old ones, so a
     renumbered pixel is not matched again."""
-    for lay in sorted(objs, key=lambda lay: ids[lay.placement]):
-        old = ids[lay.placement]
+    for k, lay in enumerate(objs):
         x0, y0, x1, y1 = lay.roi
-        win = instances[y0:y1, x0:x1]
-        win[win == old] = relabel[old]
+        win = labels[y0:y1, x0:x1]
+        win[win == k + 1] = relabel[k + 1]

@@ -11,11 +11,14 @@ Each job's parser and ``main(argv) -> int`` live in a module of this package
 (:mod:`sdcomp.cli.generate`, ...); ``python -m sdcomp.<job>`` runs the same ``main``.
 ``sdcomp COMMAND --help`` lists the command's options with their defaults and units. A
 command is imported only when it runs (so ``sdcomp show`` does not import torch); add one by
-adding a line to :data:`COMMANDS`.
+adding a line to :data:`COMMANDS`. Every command's parser is a :class:`Parser`: options are
+never abbreviated, and a mistake is one line naming it (with the nearest option for a
+misspelt one), exit status 2.
 """
 
 from __future__ import annotations
 
+import argparse
 import difflib
 import importlib
 import sys
@@ -45,6 +48,61 @@ OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench
 
 
 _RUNNING: list[str] = []  # the subcommands running now through `sdcomp COMMAND`
+
+
+class DefaultsFormatter(argparse.HelpFormatter):
+    """Help that shows each option's default once: "(default: X)" is added only where the
+    help text does not already say its default, and never to on/off switches."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if ("default" in text or action.default in (None, argparse.SUPPRESS)
+                or isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction,
+                                       argparse.BooleanOptionalAction))
+                or not action.option_strings):
+            return text
+        return text + " (default: %(default)s)"
+
+
+class Parser(argparse.ArgumentParser):
+    """The parser of every command: no prefix matching of long options (``--alt 30`` is not
+    ``--altitude 30``), defaults shown once (:class:`DefaultsFormatter`), and errors as one
+    line (a :class:`UserError`: exit status 2, no usage dump) that names the bad argument,
+    with the nearest option for a misspelt one."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        kwargs.setdefault("formatter_class", DefaultsFormatter)
+        super().__init__(*args, **kwargs)
+
+    def parse_args(self, args=None, namespace=None):
+        parsed, extras = super().parse_known_args(args, namespace)
+        if extras:
+            raise UserError(self.unknown_message(extras[0]))
+        return parsed
+
+    def unknown_message(self, arg: str) -> str:
+        """One line about the unknown argument ``arg``, with the nearest option if any."""
+        if arg.startswith("-") and len(arg) > 1:
+            name = arg.split("=", 1)[0]
+            options = sorted(self.long_options())
+            near = [o for o in options if o.startswith(name)][:1] or \
+                difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+            hint = f"did you mean {near[0]}? " if near else ""
+            return f"unknown option {name}; {hint}`{self.prog} --help` lists the options"
+        return f"unexpected argument {arg!r}; `{self.prog} --help` lists the arguments"
+
+    def long_options(self) -> set[str]:
+        """Every ``--option`` of this parser and its sub-commands' parsers."""
+        found = {o for o in self._option_string_actions if o.startswith("--")}
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    found |= sub.long_options() if isinstance(sub, Parser) else set()
+        return found
+
+    def error(self, message: str):
+        raise UserError(f"{message}; `{self.prog} --help` lists the options")
 
 
 def prog(name: str) -> str:

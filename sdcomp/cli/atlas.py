@@ -35,16 +35,16 @@ from ..atlas.store import (
     resolve_atlas_path,
 )
 from ..errors import UserError, run_cli
-from . import prog
+from . import DefaultsFormatter, Parser, prog
 from .mesh import add_mesh_arguments, mesh_spec_from_args
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=prog("atlas"),
+    p = Parser(prog=prog("atlas"),
                                 description="Pre-render a mesh into a pose-indexed sprite atlas.")
     sub = p.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build (or reuse) the atlas of a mesh",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=DefaultsFormatter)
     add_build_arguments(b)
     i = sub.add_parser("info", help="describe and check an atlas file")
     i.add_argument("path", metavar="PATH", help="atlas .npz or .json (or the name without suffix)")

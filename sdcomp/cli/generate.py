@@ -20,11 +20,11 @@ from ..pipeline import DEFAULT_SPRITES
 from ..run.engines import ENGINES
 from ..run.options import RunOptions
 from ..run.shards import parse_shard
-from ..scene.config import GeneratorConfig, ObjectSpec, load_toml
+from ..scene.config import RETIRED, GeneratorConfig, ObjectSpec, load_toml
 from ..scene.presets import PRESETS, preset
 from ..scene.settings import setting_of
 from ..util.log import add_verbosity_flags, setup_logging
-from . import prog
+from . import Parser, prog
 
 
 class _ObjectAction(argparse.Action):
@@ -47,7 +47,7 @@ class _ObjectAction(argparse.Action):
 def build_parser() -> argparse.ArgumentParser:
     """The generator's parser: how to run (:func:`_add_run_options`), then a flag per
     config field (:func:`_add_dataset_options`)."""
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=prog("generate"),
         description="Generate a synthetic drone-over-water detection dataset: images, "
                     "16-bit instance masks, COCO train/val annotations.",
@@ -124,6 +124,9 @@ def _add_dataset_options(group: argparse._ArgumentGroup) -> None:
             shown = default if default is not None else "none"
             group.add_argument(flag, dest=f.name, default=None, metavar=metavar or None,
                                help=f"{text} (default: {shown})")
+    for name in RETIRED:  # earlier versions' flags: accepted with a warning, not listed
+        group.add_argument("--" + name.replace("_", "-"), dest="retired_" + name,
+                           default=None, help=argparse.SUPPRESS)
 
 
 def _cores() -> int:
@@ -143,6 +146,8 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
                                               f"--config {args.config}")
     given = {f.name: getattr(args, f.name) for f in fields(GeneratorConfig)
              if getattr(args, f.name, None) is not None}
+    given.update({name: v for name in RETIRED
+                  if (v := getattr(args, "retired_" + name, None)) is not None})
     if args.size is not None:
         if args.size < 1:
             raise UserError(f"--size {args.size} is out of range: use 1 to 32000 pixels")
@@ -177,7 +182,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     log.info(f"wrote {counts['images']} images ({counts['train']} train, {counts['val']} "
              f"val), {counts['annotations']} annotations, {counts['objects_dropped']} objects "
              f"too hidden to annotate, to {options.out} in {secs:.1f} s")
+    warning = dropped_warning(counts, config)
+    if warning:
+        log.warning(warning)
     return 0
+
+
+def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:
+    """A warning when no object, or under half of those placed, could be annotated (fewer
+    than --min-visible-px visible pixels: too far, too small an image, or hidden)."""
+    dropped, kept = counts["objects_dropped"], counts["annotations"]
+    if dropped == 0 or dropped < kept:
+        return None
+    share = "none" if kept == 0 else f"only {kept}"
+    return (f"{share} of the {kept + dropped} objects placed could be annotated: the others had "
+            f"fewer than --min-visible-px {config.min_visible_px} visible pixels at --altitude "
+            f"{config.altitude.to_json()} and {config.width}x{config.height} px; lower "
+            f"--altitude, raise --size, or lower --min-visible-px")
 
 
 if __name__ == "__main__":

@@ -10,11 +10,11 @@ from collections.abc import Sequence
 
 from ..errors import run_cli
 from ..run.merge import merge
-from . import prog
+from . import Parser, prog
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=prog("merge"),
         description="Merge the folders of `python -m sdcomp.generate --shard K/N` runs into "
                     "one dataset, byte-identical to a single run of the same options.")

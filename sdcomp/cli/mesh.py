@@ -19,6 +19,7 @@ from ..assets.export import describe, describe_kind, export_mesh
 from ..assets.library import BUILTIN, MeshSpec
 from ..assets.meshfile import UNITS, UP_AXES
 from ..errors import UserError, run_cli
+from . import Parser
 
 
 def add_mesh_arguments(parser: argparse.ArgumentParser, positional: bool = False) -> None:
@@ -49,7 +50,7 @@ def mesh_spec_from_args(args: argparse.Namespace) -> MeshSpec:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m sdcomp.mesh",
+    p = Parser(prog="python -m sdcomp.mesh",
                                 description="Export or describe a mesh (built-in or a file).")
     sub = p.add_subparsers(dest="command", required=True)
     e = sub.add_parser("export", help="write a mesh with its colours to PLY, GLB or OBJ")

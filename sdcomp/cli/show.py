@@ -3,7 +3,7 @@
 
     python -m sdcomp.show DIR [--out DIR/sheet.png] [--n 24] [--split all|train|val]
                               [--columns 6] [--cell 256] [--select spread|first|random]
-                              [--seed 0] [--no-labels]
+                              [--seed 0] [--no-labels] [--zoom [--context 3]]
 """
 
 from __future__ import annotations
@@ -24,15 +24,15 @@ from ..report.sheet import (
     sheet_of,
     write_sheet,
 )
-from . import prog
+from ..report.zoom import CONTEXT, zoom_sheet
+from . import Parser, prog
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=prog("show"),
         description="Draw a contact sheet of a generated dataset: images with mask outlines, "
-                    "boxes (one colour per category) and captions.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                    "boxes (one colour per category) and captions.")
     p.add_argument("folder", metavar="DIR", help="dataset folder (the generator's --out)")
     p.add_argument("--out", default=None, metavar="PNG", help="sheet file (default: DIR/sheet.png)")
     p.add_argument("--n", type=int, default=24, help="images to show at most")
@@ -44,8 +44,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="spread: evenly over the images; first: the first n; random: n drawn "
                         "with --seed")
     p.add_argument("--seed", type=int, default=0, help="seed of --select random")
+    p.add_argument("--zoom", action="store_true",
+                   help="one cell per object: a crop around it, magnified (--n counts "
+                        "objects; default: whole images)")
+    p.add_argument("--context", type=float, default=CONTEXT, metavar="X",
+                   help="with --zoom: crop side as a multiple of the object's box side")
     p.add_argument("--no-labels", dest="labels", action="store_false",
-                   help="no caption band")
+                   help="no caption band (default: captions under each image)")
     return p
 
 
@@ -70,13 +75,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     ds = load_dataset(args.folder, args.split)
     out = Path(args.out) if args.out is not None else ds.folder / "sheet.png"
     _check_out(out)
-    sheet, shown = sheet_of(ds, args.split, args.n, args.columns, args.cell, args.select,
-                          args.seed, args.labels)
+    if args.zoom:
+        if not 1.0 <= args.context <= 50.0:
+            raise UserError(f"--context {args.context:g} is out of range: use 1 to 50 (times "
+                            f"the object's box side)")
+        sheet, objects = zoom_sheet(ds, args.n, args.columns, args.cell, args.select,
+                                    args.seed, args.labels, args.context)
+        anns = [a for _, a in objects]
+        what = f"{len(objects)} objects"
+    else:
+        sheet, shown = sheet_of(ds, args.split, args.n, args.columns, args.cell,
+                                args.select, args.seed, args.labels)
+        anns = [a for e in shown for a in e.annotations]
+        what = f"{len(shown)} of {len(ds.entries)} images"
     write_sheet(sheet, out)
-    used = sorted({a.get("category_id", 1) for e in shown for a in e.annotations
+    used = sorted({a.get("category_id", 1) for a in anns
                    if isinstance(a.get("category_id", 1), int)})
     legend = ", ".join(f"{ds.categories.get(c, c)} {category_colour_name(c)}" for c in used)
-    print(f"{out}: {len(shown)} of {len(ds.entries)} images ({args.split}, {args.select}), "
+    print(f"{out}: {what} ({args.split}, {args.select}), "
           f"{sheet.shape[1]}x{sheet.shape[0]} px" + (f"; colours: {legend}" if legend else ""))
     return 0
 

@@ -14,17 +14,16 @@ from pathlib import Path
 from ..errors import UserError, run_cli
 from ..report.stats import dataset_stats, format_table, plot_stats
 from ..util.log import add_verbosity_flags, setup_logging
-from . import prog
+from . import Parser, prog
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=prog("stats"),
         description="Statistics of a generated dataset: counts per category and split, "
                     "object sizes against the COCO small/medium/large bounds, altitude, "
                     "pitch, turbidity and water colour histograms, images with no objects. "
-                    "Printed as tables and drawn as a PNG figure.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                    "Printed as tables and drawn as a PNG figure.")
     p.add_argument("folder", metavar="DIR", help="dataset folder (the generator's --out)")
     p.add_argument("--out", default=None, metavar="PNG",
                    help="figure file (default: DIR/stats.png; '-' for none)")

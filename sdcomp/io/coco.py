@@ -96,10 +96,10 @@ class CocoWriter:
     def folders(self, layout: DatasetLayout) -> tuple[Path, ...]:
         return (layout.annotations,)
 
-    def image_files(self, layout: DatasetLayout, index: int) -> tuple[Path, ...]:
+    def image_files(self, layout: DatasetLayout, index: int, split: str) -> tuple[Path, ...]:
         return ()
 
-    def write_image(self, layout: DatasetLayout, index: int, image_file: str,
+    def write_image(self, layout: DatasetLayout, index: int, split: str,
                     instances: np.ndarray, annotations: list[dict]) -> None:
         return None
 

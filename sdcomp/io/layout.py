@@ -1,16 +1,21 @@
 """A dataset folder: where every file lives (:class:`DatasetLayout`) and the one checked reader.
 
-Layout of a dataset folder ``root``::
+Layout of a dataset folder ``root`` (format version 2), one sub-folder per split::
 
-    images/000000.jpg            the images (or .png), sRGB
-    masks/000000.png             16-bit instance ids (0 = none; k = annotation with
+    images/train/000000.jpg      the images (or .png), sRGB; images/val/ likewise
+    masks/train/000000.png       16-bit instance ids (0 = none; k = annotation with
                                  instance_id k of that image)
-    annotations/instances_train.json, annotations/instances_val.json   COCO (--format coco)
-    labels/000000.txt            YOLO labels (--format yolo)
+    annotations/instances_train.json, annotations/instances_val.json   COCO (--format coco):
+                                 image id = the file's number (000017.jpg has id 17),
+                                 file_name "train/000017.jpg" (relative to images/)
+    labels/train/000000.txt      YOLO labels (--format yolo), beside images/train/
     train.txt, val.txt, data.yaml                                      YOLO lists (--format yolo)
     records.jsonl                one JSON line per finished image (the journal a resumed
                                  run continues from; the label files are made from it)
     dataset.json                 config, package version, seed, status and counts
+
+Version 1 (sdcomp before issue 16) had flat images/, masks/, labels/ and COCO ids = number + 1;
+:func:`check_format_version` refuses to continue such a folder.
 
 :class:`DatasetLayout` is the only place that spells these names. :func:`load_dataset` is the
 only reader of a finished (or interrupted) folder: contact sheets, statistics, the torch
@@ -29,14 +34,15 @@ from ..errors import UserError
 from .journal import iter_records, read_journal
 
 FORMAT = "sdcomp-dataset"
-FORMAT_VERSION = 1
+#: 2: per-split folders, COCO image id = file number, float boxes (1: flat folders, id + 1)
+FORMAT_VERSION = 2
 SPLITS = ("train", "val")
 SPLIT_CHOICES = ("all", *SPLITS)
 IMAGES, MASKS, ANNOTATIONS, LABELS = "images", "masks", "annotations", "labels"
 JOURNAL, META = "records.jsonl", "dataset.json"
 DATA_YAML = "data.yaml"
 #: the folders every run makes (the label writers add their own)
-CORE_FOLDERS = (IMAGES, MASKS, ANNOTATIONS)
+CORE_FOLDERS = (IMAGES, MASKS)
 #: every top-level name a dataset folder may hold: what --overwrite replaces, nothing else
 ENTRIES = (IMAGES, MASKS, ANNOTATIONS, JOURNAL, META, LABELS, *(f"{s}.txt" for s in SPLITS),
            DATA_YAML)
@@ -48,6 +54,23 @@ LAYOUT_ORDER = ("images", "masks", "train", "val", "journal", "yolo_labels", "yo
 def image_name(index: int, ext: str) -> str:
     """File name of image ``index`` with extension ``ext``: ``000017.jpg``."""
     return f"{index:06d}.{ext}"
+
+
+def split_name(index: int, ext: str, split: str) -> str:
+    """Name of image ``index``'s file relative to ``images/`` (or ``masks/``, ``labels/``):
+    ``train/000017.jpg``; what the COCO ``file_name`` and ``mask_file`` hold."""
+    return f"{split}/{image_name(index, ext)}"
+
+
+def check_format_version(meta: dict, root: Path, what: str) -> None:
+    """UserError unless dataset.json ``meta`` (of the folder ``root``) is of this version's
+    dataset format; ``what`` names the action refused (``--resume``, ``merge``)."""
+    version = meta.get("format_version", 1)
+    if version != FORMAT_VERSION:
+        raise UserError(f"{what}: {root} was written by another sdcomp (dataset format "
+                        f"{version}; this sdcomp writes format {FORMAT_VERSION}: per-split "
+                        f"folders, COCO image id = file number): generate it afresh with "
+                        f"--overwrite, or use the sdcomp that wrote it")
 
 
 @dataclass(frozen=True)
@@ -84,17 +107,21 @@ class DatasetLayout:
     def data_yaml(self) -> Path:
         return self.root / DATA_YAML
 
-    def image_file(self, index: int, ext: str) -> Path:
-        return self.images / image_name(index, ext)
+    def image_file(self, index: int, ext: str, split: str) -> Path:
+        return self.images / split_name(index, ext, split)
 
-    def mask_file(self, index: int) -> Path:
-        return self.masks / image_name(index, "png")
+    def mask_file(self, index: int, split: str) -> Path:
+        return self.masks / split_name(index, "png", split)
 
     def coco_file(self, split: str) -> Path:
         return self.annotations / f"instances_{split}.json"
 
-    def label_file(self, index: int) -> Path:
-        return self.labels / image_name(index, "txt")
+    def label_file(self, index: int, split: str) -> Path:
+        return self.labels / split_name(index, "txt", split)
+
+    def split_folders(self, folder: Path) -> tuple[Path, ...]:
+        """``folder``'s per-split sub-folders: ``folder/train``, ``folder/val``."""
+        return tuple(folder / s for s in SPLITS)
 
     def list_file(self, split: str) -> Path:
         return self.root / f"{split}.txt"

@@ -28,14 +28,16 @@ class LabelWriter(Protocol):
         """Folders the format writes into (made before the run, swept of temporary files)."""
         ...
 
-    def image_files(self, layout: DatasetLayout, index: int) -> tuple[Path, ...]:
-        """The files the format writes for image ``index`` (none for whole-run formats)."""
+    def image_files(self, layout: DatasetLayout, index: int, split: str) -> tuple[Path, ...]:
+        """The files the format writes for image ``index`` of ``split`` (none for whole-run
+        formats)."""
         ...
 
-    def write_image(self, layout: DatasetLayout, index: int, image_file: str,
+    def write_image(self, layout: DatasetLayout, index: int, split: str,
                     instances: np.ndarray, annotations: list[dict]) -> None:
-        """Write image ``index``'s own label files: ``instances`` (H, W) uint16 ids, its
-        journal annotations (``instance_id``, ``category_id``, ``bbox``, ...)."""
+        """Write image ``index``'s own label files (it is in ``split``): ``instances``
+        (H, W) uint16 ids, its journal annotations (``instance_id``, ``category_id``,
+        ``bbox``, ...)."""
         ...
 
     def finish(self, layout: DatasetLayout, offsets: dict[int, int], categories: list[dict],

@@ -2,26 +2,27 @@
 
 With ``--format yolo`` (or ``coco,yolo``) the dataset folder also holds::
 
-    labels/000000.txt        one line per annotated object, coordinates normalised to 0-1:
-                             "class cx cy w h" (boxes), or "class x1 y1 x2 y2 ..." with
-                             --yolo-seg (a polygon traced from the instance mask); an empty
-                             file for an image without objects
-    train.txt, val.txt       the split's images, one "./images/000000.jpg" per line
+    labels/train/000000.txt  one line per annotated object, coordinates normalised to 0-1:
+    labels/val/000003.txt    "class cx cy w h" (boxes), or "class x1 y1 x2 y2 ..." with
+                             --yolo-seg (a polygon of the instance mask); an empty file for
+                             an image without objects
+    train.txt, val.txt       the split's images, one "./images/train/000000.jpg" per line
     data.yaml                the split lists and the class names, for Ultralytics
 
-``labels/`` lies beside ``images/`` with the same file stems, which is where Ultralytics looks
-for an image's labels (it swaps the last ``/images/`` of the path for ``/labels/`` and the
-suffix for ``.txt``); list files with ``./`` paths are read relative to the list's folder.
+``labels/train/`` lies beside ``images/train/`` with the same file stems, which is where
+Ultralytics looks for an image's labels (it swaps the last ``/images/`` of the path for
+``/labels/`` and the suffix for ``.txt``) and where supervision's ``from_yolo`` takes a
+split's labels from; each split gets its own Ultralytics cache (``labels/train.cache``,
+``labels/val.cache``). List files with ``./`` paths are read relative to the list's folder.
 ``data.yaml`` has no ``path:`` key, so Ultralytics takes the yaml's own folder as the root and
 the dataset folder can be moved. Class ``k`` is COCO ``category_id`` ``k + 1``.
 
-Coordinates are pixel-edge coordinates (the left edge of the image is x = 0, the right edge
-x = width), divided by the width or height and written with 6 decimals, so a label box equals
-the COCO ``bbox`` ``[x, y, w, h]`` to within 0.5e-6 of the image size. Polygons run along the
-pixel edges of the mask (traced with ``cv2.findContours`` on a half-pixel grid), so their
-extent is exactly the COCO box and their area the mask's pixel count, holes included (YOLO
-polygons have no holes). An object in several pieces becomes one polygon that visits the
-pieces in turn along zero-width bridges (the way Ultralytics joins multi-part COCO polygons).
+Box coordinates are pixel-edge coordinates (the left edge of the image is x = 0, the right
+edge x = width), divided by the width or height and written with 6 decimals, so a label box
+equals the COCO ``bbox`` ``[x, y, w, h]`` to within 0.5e-6 of the image size. Polygons are
+made for the way consumers draw them (:func:`mask_polygon`): Ultralytics' ``polygon2mask``
+and supervision's ``polygon_to_mask`` give back exactly the mask, holes included, except
+where a bridge joins separate pieces of one object.
 """
 
 from __future__ import annotations
@@ -59,83 +60,88 @@ def box_line(class_id: int, bbox: Sequence[float], width: int, height: int) -> s
                      _num(w / width), _num(h / height)])
 
 
+#: where a vertex sits inside its pixel, pixels: this far from the pixel's left (top) edge
+#: on a left (top) side of the outline, this far before its centre on a right (bottom) side
+VERTEX_INSET = 1.0 / 32.0
+
+
 def mask_polygon(crop: np.ndarray, x0: int = 0, y0: int = 0) -> np.ndarray:
     """One polygon around the True pixels of ``crop`` ((h, w) bool, its top-left pixel at
-    (x0, y0) in the image): (K, 2) float64 pixel-edge coordinates (x, y), K >= 4.
+    (x0, y0) in the image) that Ultralytics and supervision draw back to exactly the mask:
+    (K, 2) float64 pixel coordinates (x, y; the image's left edge is x = 0), K >= 4.
 
-    The outline follows the pixel edges (outer boundaries only); several pieces are joined
-    into one polygon by zero-width bridges between their nearest vertices. Raises ValueError
-    for a mask without any True pixel.
+    Both consumers draw a polygon with ``cv2.fillPoly`` after making its vertices integers
+    (Ultralytics truncates, supervision rounds), which fills every pixel whose index is on
+    or inside the integer polygon: a vertex names a pixel, not a corner. So the outline runs
+    through the mask's boundary pixels (traced with ``cv2.findContours`` on the mask
+    upsampled 2x, whose sub-pixels say which side of its pixel a vertex is on), each vertex
+    at ``pixel + VERTEX_INSET`` on a left or top side and ``pixel + 0.5 - VERTEX_INSET`` on a
+    right or bottom side: inside [pixel, pixel + 0.5), where truncating and rounding agree.
+    The polygon's extent is the mask's box less about half a pixel on the right and bottom.
+
+    Holes and separate pieces are joined into the one polygon by zero-width bridges, each
+    contour spliced in at its vertex nearest to the outline so far; an even-odd fill leaves
+    the holes empty. A bridge between separate pieces crosses pixels outside the mask, which
+    a fill draws (YOLO has one polygon per object). Raises ValueError for a mask without any
+    True pixel.
     """
     crop = np.asarray(crop, dtype=bool)
     if crop.ndim != 2 or not crop.any():
         raise ValueError("mask_polygon needs a 2-D mask with at least one True pixel")
+    path = _straight_runs_dropped(_spliced(_contours_2x(crop)))
+    inset = np.where(path % 2 == 0, VERTEX_INSET, 0.5 - VERTEX_INSET)
+    return (path // 2) + inset + np.array([x0, y0], np.float64)
+
+
+def _contours_2x(crop: np.ndarray) -> list[np.ndarray]:
+    """The outer contours and holes of ``crop`` upsampled 2x: (K, 2) int sub-pixel (x, y)
+    paths of boundary sub-pixels, each outer contour followed by its holes. Sub-pixel 2c
+    (2c + 1) is the left (right) half of pixel c."""
     h, w = crop.shape
-    # half-pixel grid: grid point (2r + i, 2c + j), i, j in 0..2, lies on pixel (r, c)'s
-    # corners (even, even), edge midpoints or centre; a pixel sets all 9 of its grid points,
-    # so pixels one pixel apart stay apart and the traced outline lies on the pixel edges
-    grid = np.zeros((2 * h + 1, 2 * w + 1), np.uint8)
-    for i in range(3):
-        for j in range(3):
-            grid[i:i + 2 * h:2, j:j + 2 * w:2] |= crop
-    contours, _ = cv2.findContours(grid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    pieces = [_axis_aligned(c.reshape(-1, 2)).astype(np.float64) / 2.0 for c in contours]
-    poly = _join(pieces)
-    return poly + np.array([x0, y0], np.float64)
+    up = np.zeros((2 * h + 2, 2 * w + 2), np.uint8)  # a blank border for findContours
+    up[1:-1, 1:-1] = np.repeat(np.repeat(crop.view(np.uint8), 2, axis=0), 2, axis=1)
+    contours, hier = cv2.findContours(up, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    links = hier.reshape(-1, 4)  # next, previous, first child, parent
+    out = []
+    for i, c in enumerate(contours):
+        if links[i, 3] != -1:
+            continue
+        out.append(c.reshape(-1, 2) - 1)
+        j = links[i, 2]
+        while j != -1:
+            out.append(contours[j].reshape(-1, 2) - 1)
+            j = links[j, 0]
+    return out
 
 
-def _axis_aligned(pts: np.ndarray) -> np.ndarray:
-    """A closed half-pixel grid path (K, 2) int of single steps, with each diagonal step
-    (which 8-connected tracing takes across a concave corner) replaced by its two axis steps
-    through the pixel corner (the point with even coordinates), then only the vertices where
-    the direction changes."""
-    nxt = np.roll(pts, -1, axis=0)
-    step = nxt - pts
-    diag = (np.abs(step) == 1).all(axis=1)
-    corner = np.where((pts[:, :1] % 2 == 0), np.column_stack([pts[:, 0], nxt[:, 1]]),
-                      np.column_stack([nxt[:, 0], pts[:, 1]]))
-    path = np.empty((len(pts) + int(diag.sum()), 2), pts.dtype)
-    at = np.arange(len(pts)) + np.concatenate([[0], np.cumsum(diag)[:-1]])
-    path[at] = pts
-    path[at[diag] + 1] = corner[diag]
+def _spliced(pieces: list[np.ndarray]) -> np.ndarray:
+    """One closed path through all ``pieces`` ((K, 2) closed paths): each spliced into the
+    path so far at the nearest pair of vertices, along a bridge walked there and back."""
+    path = pieces[0]
+    for piece in pieces[1:]:
+        d = ((path[:, None, :] - piece[None, :, :]) ** 2).sum(axis=2)
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        walk = np.roll(piece, -int(j), axis=0)
+        path = np.vstack([path[:i + 1], walk, walk[:1], path[i:]])
+    return path
+
+
+def _straight_runs_dropped(path: np.ndarray) -> np.ndarray:
+    """``path`` (K, 2) without the vertices in the middle of a straight run (where the
+    direction in equals the direction out)."""
     if len(path) < 3:
         return path
     d_in = path - np.roll(path, 1, axis=0)
     d_out = np.roll(path, -1, axis=0) - path
-    turn = (np.sign(d_in) != np.sign(d_out)).any(axis=1)
-    return path[turn]
-
-
-def _join(pieces: list[np.ndarray]) -> np.ndarray:
-    """One closed path through all ``pieces`` (each (K, 2), closed implicitly): walk each
-    piece from where the bridge from the previous one arrives to where the bridge to the next
-    one leaves, around the last one entirely, then back along the other side of each."""
-    if len(pieces) == 1:
-        return pieces[0]
-    entry = [0]
-    leave = []
-    for a, b in zip(pieces[:-1], pieces[1:], strict=True):
-        d = ((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2)
-        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
-        leave.append(int(i))
-        entry.append(int(j))
-    forward, back = [], []
-    last = len(pieces) - 1
-    for k, piece in enumerate(pieces):
-        walk = np.roll(piece, -entry[k], axis=0)  # starts where the bridge arrives
-        if k == last:
-            forward.append(np.vstack([walk, walk[:1]]))
-            continue
-        stop = (leave[k] - entry[k]) % len(piece)
-        forward.append(walk[:stop + 1])
-        back.append(np.vstack([walk[stop:], walk[:1]]))
-    return np.vstack(forward + back[::-1])
+    cross = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+    straight = (cross == 0) & ((d_in * d_out).sum(axis=1) > 0)
+    return path[~straight]
 
 
 def polygon_line(class_id: int, polygon: np.ndarray, width: int, height: int) -> str:
     """``"class x1 y1 x2 y2 ..."`` of a (K, 2) pixel polygon, normalised to 0-1."""
     xy = np.asarray(polygon, np.float64) / np.array([width, height], np.float64)
-    xy = np.clip(xy, 0.0, 1.0)
+    xy = np.clip(xy, 0.0, 1.0)  # (vertices lie inside their pixels: a no-op)
     return " ".join([str(int(class_id)), *(_num(v) for v in xy.reshape(-1))])
 
 
@@ -154,11 +160,6 @@ def label_text(instances: np.ndarray, annotations: Iterable[dict], seg: bool = F
         crop = instances[y:y + h, x:x + w] == ann["instance_id"]
         lines.append(polygon_line(cls, mask_polygon(crop, x, y), width, height))
     return "".join(line + "\n" for line in lines)
-
-
-def label_name(image_file: str) -> str:
-    """``labels/`` file name of an image file name (``000017.jpg`` -> ``000017.txt``)."""
-    return Path(image_file).with_suffix(".txt").name
 
 
 def write_lists(layout: DatasetLayout, records: Iterable[dict], categories: list[dict],
@@ -204,14 +205,14 @@ class YoloWriter:
         self.seg = config.yolo_seg
 
     def folders(self, layout: DatasetLayout) -> tuple[Path, ...]:
-        return (layout.labels,)
+        return (layout.labels, *layout.split_folders(layout.labels))
 
-    def image_files(self, layout: DatasetLayout, index: int) -> tuple[Path, ...]:
-        return (layout.label_file(index),)
+    def image_files(self, layout: DatasetLayout, index: int, split: str) -> tuple[Path, ...]:
+        return (layout.label_file(index, split),)
 
-    def write_image(self, layout: DatasetLayout, index: int, image_file: str,
+    def write_image(self, layout: DatasetLayout, index: int, split: str,
                     instances: np.ndarray, annotations: list[dict]) -> None:
-        files.write_file(layout.labels / label_name(image_file),
+        files.write_file(layout.label_file(index, split),
                          label_text(instances, annotations, self.seg).encode())
 
     def finish(self, layout: DatasetLayout, offsets: dict[int, int], categories: list[dict],
@@ -224,5 +225,5 @@ class YoloWriter:
         return dict(LAYOUT)
 
 
-__all__ = ["YoloWriter", "box_line", "mask_polygon", "polygon_line", "label_text", "label_name",
-           "write_lists", "data_yaml"]
+__all__ = ["YoloWriter", "box_line", "mask_polygon", "polygon_line", "label_text",
+           "write_lists", "data_yaml", "VERTEX_INSET"]

@@ -2,16 +2,22 @@
 
 Per image, in this order (each stage its own module):
 
-1. **Background** (:mod:`~sdcomp.render.background`): procedural water, sea floor, land and
-   sky, or one of the user's photos.
+1. **Background** (:mod:`~sdcomp.render.background`): the sea and sky
+   (:mod:`~sdcomp.render.water`), land and hills, or one of the user's photos; with the light
+   the objects are lit by.
 2. **Layers** (:mod:`~sdcomp.render.layers`): every floating object as an atlas sprite,
-   relit, submerged and mapped to the image by the camera's projection at the object.
+   lit like the water around it, cut by a wavy waterline and seen through the water below it
+   (:mod:`~sdcomp.render.submerge`), mapped to the image by the camera's projection at the
+   object.
 3. **Composite** (:mod:`~sdcomp.render.composite`): shadows, then the layers far to near,
    premultiplied ``over``; each layer's *weight* ends as the fraction of each pixel's colour
    the object supplies, from which :mod:`sdcomp.annotate` makes the masks.
-4. **Camera effects** (:mod:`~sdcomp.render.effects`): blur and sensor noise.
+4. **Defocus** (:mod:`~sdcomp.render.effects`).
 
-The compositor reads nothing but the scene and its :class:`RenderAssets`.
+That is the scene's light on a pinhole camera's image plane. The camera that records it (lens,
+exposure, noise, compression: :mod:`sdcomp.render.camera`) comes after the masks are made,
+with them: :meth:`Compositor.record`. The compositor reads nothing but the scene and its
+:class:`RenderAssets`.
 """
 
 from __future__ import annotations
@@ -26,21 +32,24 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel
 from ..scene.scene import Scene
 from .background import Background
+from .camera import apply_camera
+from .camera.sensor import make_noise_tile
 from .composite import composite
-from .effects import apply_effects, noise_tile
+from .effects import blur
 from .layers import Layer, build_layers
 from .lighting import lighting
 from .photos import Backgrounds
 from .textures import Textures
+from .water import WaterLight
 
 ONE_THREAD_PIXELS = 512 * 512  # frames up to this size are drawn on one OpenCV thread
-BACKGROUND_MAX = 1400  # pixels: larger frames get an upsampled background
+BACKGROUND_MAX = 4096  # pixels: larger frames get an upsampled background
 
 
 @dataclass(frozen=True)
 class RenderAssets:
     """What scenes are drawn with: sprites by asset key (:attr:`Placement.asset`), the
-    ground textures and the user's photos (None: procedural water)."""
+    textures and the user's photos (None: procedural water)."""
 
     sprites: Mapping[str, SpriteSource]
     textures: Textures
@@ -49,11 +58,13 @@ class RenderAssets:
 
 @dataclass
 class Rendered:
-    """A rendered image: ``image`` (H, W, 3) uint8 sRGB and the ``layers`` drawn on it, far
-    to near, with their final weights."""
+    """A rendered image: ``image`` (H, W, 3) uint8 sRGB (exposed, before the camera's
+    look), the ``layers`` drawn on it, far to near, with their final weights, and the
+    ``light`` they were lit by."""
 
     image: np.ndarray
     layers: list[Layer] = field(default_factory=list)
+    light: WaterLight | None = None
 
 
 class Compositor:
@@ -68,43 +79,44 @@ class Compositor:
         self._noise: dict[tuple, np.ndarray] = {}
 
     def prepare(self, model: CameraModel, noise_seed: tuple[int, ...]) -> None:
-        """Make what images of ``model`` need (background grids, the noise tile of the run
+        """Make what images of ``model`` need (the background, the noise tile of the run
         whose noise seed is ``noise_seed``) now."""
         self.background(model)
-        self._noise_tile(model, noise_seed)
+        self.noise_tile(model, noise_seed)
 
     def render(self, scene: Scene) -> Rendered:
         """``scene`` rendered. Frames of up to :data:`ONE_THREAD_PIXELS` are drawn with
         OpenCV on one thread (its thread pool costs more than it gives on them); the
         process's thread count is restored after."""
-        threads = cv2.getNumThreads()
-        model = scene.model
-        if threads == 1 or model.width * model.height > ONE_THREAD_PIXELS:
+        with _threads_for(scene.model):
             return self._render(scene)
-        cv2.setNumThreads(1)
-        try:
-            return self._render(scene)
-        finally:
-            cv2.setNumThreads(threads)
 
     def _render(self, scene: Scene) -> Rendered:
         model = scene.model
-        lit = lighting(scene)
-        rng = np.random.default_rng(list(scene.seeds.waves))
         background = self.background(model)
-        image = background.draw(scene, lit, rng)
+        image, light = background.draw(scene)
         if background.model != model:
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
+        lit = lighting(scene, light)
         layers = build_layers(scene, lit, self.assets.sprites)
         composite(image, layers, scene.shadows)
-        noise = self._noise_tile(model, scene.seeds.noise_tile)
-        image = apply_effects(image, scene.effects, noise, rng)
-        return Rendered(image, layers)
+        image = blur(image, None, scene.defocus_blur)
+        return Rendered(image, layers, light)
+
+    def record(self, scene: Scene, image: np.ndarray, instances: np.ndarray,
+               amodal: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict]:
+        """The camera's recording of a rendered ``image`` (H, W, 3) uint8 with its instance
+        map (H, W) uint16 and amodal masks (N, H, W) bool (or None): :func:`apply_camera`
+        with the scene's look and the run's noise tile (see it for what it returns)."""
+        with _threads_for(scene.model):
+            tile = self.noise_tile(scene.model, scene.seeds.noise_tile)
+            return apply_camera(image, instances, scene.look, tile, amodal)
 
     def background(self, model: CameraModel) -> Background:
-        """The background drawer of ``model``: at most :data:`BACKGROUND_MAX` wide (large
-        frames: smooth light and textures magnified from a few-centimetre pitch anyway)."""
+        """The background drawer of ``model``: at most :data:`BACKGROUND_MAX` wide (larger
+        frames: the water's light and textures magnified)."""
         bg = self._backgrounds.get(model)
         if bg is None:
             small = model
@@ -117,9 +129,29 @@ class Compositor:
                                                        self.assets.photos)
         return bg
 
-    def _noise_tile(self, model: CameraModel, seed: tuple[int, ...]) -> np.ndarray:
+    def noise_tile(self, model: CameraModel, seed: tuple[int, ...]) -> np.ndarray:
+        """The sensor-noise tile of images of ``model`` in the run of noise seed ``seed``
+        (:func:`make_noise_tile`), made once."""
         key = (seed, model.height, model.width)
         tile = self._noise.get(key)
         if tile is None:
-            tile = self._noise[key] = noise_tile(*key)
+            tile = self._noise[key] = make_noise_tile(*key)
         return tile
+
+
+class _threads_for:
+    """Context: OpenCV on one thread for frames of up to :data:`ONE_THREAD_PIXELS` (its
+    thread pool costs more than it gives on them), the thread count restored after."""
+
+    def __init__(self, model: CameraModel):
+        self.small = model.width * model.height <= ONE_THREAD_PIXELS
+        self.threads = 1
+
+    def __enter__(self) -> None:
+        self.threads = cv2.getNumThreads()
+        if self.small and self.threads != 1:
+            cv2.setNumThreads(1)
+
+    def __exit__(self, *exc) -> None:
+        if self.small and self.threads != 1:
+            cv2.setNumThreads(self.threads)

@@ -1,12 +1,10 @@
-"""Camera effects on the rendered uint8 image: motion and defocus blur, sensor noise.
+"""Blur of the rendered uint8 image: motion along a line and defocus (Gaussian).
 
-Exposure, white balance and vignetting are gains applied where colours are computed
-(:mod:`sdcomp.render.lighting`); what is left for the finished image is here. Blur and noise
-come after the masks are made and never change them.
-
-Motion blur along a line of ``n`` taps is a convolution for short lines and, from
-:data:`LINE_TAPS_MIN` taps on, :func:`line_mean`: sums of ``2**k`` consecutive taps built by
-doubling, ``n`` put together from its binary digits (see docs/architecture.md).
+Blur comes after the masks are made and never changes them. Motion blur along a line of
+``n`` taps is a convolution for short lines and, from :data:`LINE_TAPS_MIN` taps on,
+:func:`line_mean`: sums of ``2**k`` consecutive taps built by doubling, ``n`` put together
+from its binary digits (see docs/architecture.md). Frames larger than
+:data:`BLUR_EXACT_MAX` are blurred reduced (:func:`blur`).
 """
 
 from __future__ import annotations
@@ -16,48 +14,10 @@ import math
 import cv2
 import numpy as np
 
-from ..scene.scene import Effects
-
 BLUR_EXACT_MAX = 8192  # pixels: larger frames are blurred at BLUR_WORK_SIZE and magnified
 BLUR_WORK_SIZE = 4096  # pixels: at most this size (an integer reduction factor)
 LINE_TAPS_MIN = 16  # motion blur this long or longer sums shifted frames (line_mean)
 LINE_BAND_BYTES = 8 << 20  # line_mean works in bands of rows of about this many bytes
-NOISE_SCALE = 32.0  # uint8 levels per standard deviation in the noise tile
-
-
-def noise_tile(seed: tuple[int, ...], h: int, w: int) -> np.ndarray:
-    """The sensor-noise tile of frames of (h, w) pixels: (nh, nw, 3) uint8,
-    ``128 + NOISE_SCALE x N(0, 1)``, a function of the seed sequence ``seed``
-    (:attr:`sdcomp.scene.scene.FeatureSeeds.noise_tile`), at least 1021 pixels larger than
-    the frame in each direction up to 1024 (frames larger than it get it added block by
-    block: :func:`add_noise`)."""
-    rng = np.random.default_rng(list(seed))
-    nh, nw = min(h, 1024) + 1021, min(w, 1024) + 1031
-    noise = 128.0 + NOISE_SCALE * rng.standard_normal((nh, nw, 1))
-    return np.repeat(np.clip(np.rint(noise), 0, 255).astype(np.uint8), 3, axis=2)
-
-
-def add_noise(image: np.ndarray, noise: np.ndarray, s: float, rng) -> np.ndarray:
-    """``image + s * (noise - 128)`` for a uint8 (H, W, 3) ``image`` and a uint8 noise tile
-    (at least 1021 pixels larger than the image in each direction up to 1024 pixels).
-    A frame that fits the tile gets a random window of it (a new array); a larger frame
-    gets the tile added block by block in place (frames of gigabytes are not copied), at a
-    random offset."""
-    h, w = image.shape[:2]
-    nh, nw = noise.shape[:2]
-    if h <= nh and w <= nw:
-        oy = int(rng.integers(nh - h + 1))
-        ox = int(rng.integers(nw - w + 1))
-        return cv2.addWeighted(image, 1.0, noise[oy:oy + h, ox:ox + w], s, -128.0 * s)
-    oy, ox = int(rng.integers(nh)), int(rng.integers(nw))
-    for y in range(-oy, h, nh):
-        for x in range(-ox, w, nw):
-            ty0, tx0 = max(y, 0), max(x, 0)
-            ty1, tx1 = min(y + nh, h), min(x + nw, w)
-            block = image[ty0:ty1, tx0:tx1]
-            cv2.addWeighted(block, 1.0, noise[ty0 - y:ty1 - y, tx0 - x:tx1 - x], s,
-                            -128.0 * s, dst=block)
-    return image
 
 
 def motion_blur(image: np.ndarray, length: float, angle: float) -> np.ndarray:
@@ -141,31 +101,28 @@ def motion_kernel(length: float, angle: float) -> np.ndarray:
     return kernel / kernel.sum()
 
 
-def apply_effects(image: np.ndarray, fx: Effects, noise: np.ndarray | None,
-                  rng: np.random.Generator) -> np.ndarray:
-    """Blur and sensor noise of ``fx`` on the uint8 (H, W, 3) ``image`` (changed in place for
-    huge frames, else a new array is returned); ``noise`` is the run's noise tile
-    (:func:`noise_tile`), ``rng`` draws its window."""
+def blur(image: np.ndarray, motion: tuple[float, float] | None,
+         defocus: float | None) -> np.ndarray:
+    """``image`` (H, W, 3) uint8 blurred by ``motion`` (length px, angle degrees) and
+    ``defocus`` (Gaussian sigma px), either may be None: a new array, or ``image`` changed
+    in place for frames larger than :data:`BLUR_EXACT_MAX` (frames of gigabytes are not
+    copied): their kernels grow with the frame (hundreds of pixels at 30000 px), so a copy
+    reduced to :data:`BLUR_WORK_SIZE` is blurred and magnified back (detail finer than the
+    reduction factor, 8 px at 30000, is lost; an integer factor takes OpenCV's fast
+    area-averaging path)."""
+    if motion is None and defocus is None:
+        return image
     h, w = image.shape[:2]
-    if max(h, w) > BLUR_EXACT_MAX and (fx.motion_blur or fx.defocus_blur):
-        # huge frames: the blur kernels grow with the frame (hundreds of pixels at
-        # 30000 px); blur a copy reduced to BLUR_WORK_SIZE and magnify it back into
-        # the frame (detail finer than the reduction factor, 8 px at 30000, is lost);
-        # an integer factor takes OpenCV's fast area-averaging path
+    if max(h, w) > BLUR_EXACT_MAX:
         f = math.ceil(max(h, w) / BLUR_WORK_SIZE)
         small = cv2.resize(image, (max(1, round(w / f)), max(1, round(h / f))),
                            interpolation=cv2.INTER_AREA)
-        if fx.motion_blur is not None:
-            length, angle = fx.motion_blur
-            small = motion_blur(small, length / f, angle)
-        if fx.defocus_blur is not None:
-            small = cv2.GaussianBlur(small, (0, 0), fx.defocus_blur / f)
+        small = blur(small, None if motion is None else (motion[0] / f, motion[1]),
+                     None if defocus is None else defocus / f)
         cv2.resize(small, (w, h), dst=image, interpolation=cv2.INTER_LINEAR)
-    else:
-        if fx.motion_blur is not None:
-            image = motion_blur(image, *fx.motion_blur)
-        if fx.defocus_blur is not None:
-            image = cv2.GaussianBlur(image, (0, 0), fx.defocus_blur)
-    if fx.noise > 0 and noise is not None:
-        image = add_noise(image, noise, fx.noise / NOISE_SCALE, rng)
+        return image
+    if motion is not None:
+        image = motion_blur(image, *motion)
+    if defocus is not None:
+        image = cv2.GaussianBlur(image, (0, 0), defocus)
     return image

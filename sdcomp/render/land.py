@@ -1,4 +1,6 @@
-"""What is not water: land beyond a coastline, and the sky (with hills) above the horizon."""
+"""What is not water: land beyond a coastline, and hills standing on the horizon, lit by the
+sun and sky of the image's :class:`~sdcomp.render.water.WaterLight` and exposed like the
+water."""
 
 from __future__ import annotations
 
@@ -7,26 +9,38 @@ import math
 import cv2
 import numpy as np
 
-from ..scene.camera import (
-    CameraModel,
-    CameraPose,
-    horizon_row,
-    pixel_centres,
-    project,
-    row_directions,
-)
+from ..scene.camera import CameraModel, CameraPose, horizon_row, project
 from ..scene.scene import Shore
-from ..util.colour import linear_to_srgb
-from .ground import offsets
-from .optics import sky_linear
+from ..util.colour import linear_to_srgb, srgb_to_linear
+from .ground import ground_view, offsets
 from .textures import Texture
+from .water import WaterLight
+
+FOAM_ALBEDO = 0.6  # of the surf line along the shore
+HILL_ALBEDO = (0.06, 0.08, 0.05)  # linear RGB: wooded hills
+HILL_DISTANCE = 3000.0  # metres: how far the hills are (their haze)
+
+
+def diffuse_scale(light: WaterLight) -> np.ndarray:
+    """(3,) float32: exposed linear radiance per unit albedo of a horizontal Lambertian
+    surface under the image's sun and sky, ``(E_sun sin(elevation) + E_sky) / pi x gain``."""
+    e = light.sun_irradiance * max(float(light.sun[2]), 0.0) + light.sky_irradiance
+    return (np.asarray(e, np.float32) * np.float32(light.gain / np.pi)).astype(np.float32)
+
+
+def albedo_table(scale: np.ndarray) -> np.ndarray:
+    """(256, 1, 3) uint8 ``cv2.LUT`` table: sRGB albedo level -> sRGB exposed level of a
+    surface with radiance ``albedo x scale`` (3,) (see :func:`diffuse_scale`)."""
+    lin = srgb_to_linear(np.arange(256, dtype=np.float32)[:, None] / 255.0) * scale[None]
+    out = np.clip(linear_to_srgb(np.clip(lin, 0, 1)) * 255.0 + 0.5, 0, 255)
+    return out.astype(np.uint8).reshape(256, 1, 3)
 
 
 def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Shore,
-             land: Texture, gain: np.ndarray, seed: tuple[int, ...]) -> None:
+             land: Texture, light: WaterLight, seed: tuple[int, ...]) -> None:
     """Land beyond the coastline of ``shore`` drawn in place on the uint8 (H, W, 3)
-    ``image``: a textured polygon with a foam line at the shore; ``gain`` is the camera
-    gain on the background grid, ``seed`` the land texture's offset seed."""
+    ``image``: a textured polygon with a foam line at the shore, lit by ``light``; ``seed``
+    is the land texture's offset seed."""
     w, h = model.width, model.height
     a = math.radians(shore.angle)
     normal = np.array([math.cos(a), math.sin(a)])
@@ -52,43 +66,31 @@ def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Sho
     thick = max(1, int(round(0.6 / max(pose.altitude / model.fx, 1e-6))))
     cv2.polylines(foam, [line], False, 255, thickness=thick, lineType=cv2.LINE_AA,
                   shift=4)
-    gx, gy = model.nadir_gsd(pose.altitude)
-    tex = land.view(*offsets(np.random.default_rng(list(seed))), gx * w, gy * h, w, h)
-    g = float(np.mean(gain))
+    tex = ground_view(model, pose.altitude, pose.pitch, land,
+                      *offsets(np.random.default_rng(list(seed))))
+    scale = diffuse_scale(light)
     bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, foam))
     win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or foam is
     m = mask[win].astype(np.float32) * np.float32(1.0 / 255.0)
-    land_px = cv2.blendLinear(image[win], cv2.convertScaleAbs(tex[win], alpha=g), 1.0 - m, m)
+    lit = cv2.LUT(np.ascontiguousarray(tex[win]), albedo_table(scale))
+    land_px = cv2.blendLinear(image[win], lit, 1.0 - m, m)
     f = foam[win].astype(np.float32) * np.float32(0.7 / 255.0)
-    white = np.full_like(land_px, min(255, round(230.0 * g)))
+    foam_rgb = linear_to_srgb(np.clip(scale * FOAM_ALBEDO, 0, 1)) * 255.0
+    white = np.empty_like(land_px)
+    white[:] = np.clip(foam_rgb + 0.5, 0, 255).astype(np.uint8)
     image[win] = cv2.blendLinear(land_px, white, 1.0 - f, f)
 
 
-def add_sky(image: np.ndarray, model: CameraModel, pose: CameraPose, hills: int | None,
-            gain: np.ndarray) -> None:
-    """The sky above the horizon (a sharp line) drawn in place on the uint8 (H, W, 3)
-    ``image``, with hills on it when ``hills`` (the ridge's seed) is given; ``gain`` is the
-    camera gain on the background grid."""
-    h = model.height
-    v_h = horizon_row(model, pose.pitch)
-    rows = int(math.ceil(max(0.0, min(h, v_h))))
-    if rows <= 0:
-        return
-    vv = pixel_centres(model, 1, rows)
-    # elevation sine of each row's ray through the image centre column
-    fwd, up = row_directions(pose.pitch, vv)
-    sin_el = up / np.sqrt(up ** 2 + fwd ** 2)
-    col = sky_linear(np.clip(sin_el, 0, 1)) * float(np.mean(gain[0]))
-    col = linear_to_srgb(col) * 255.0
-    image[:rows] = np.clip(col + 0.5, 0, 255).astype(np.uint8)[:, None, :]
-    if hills is not None:
-        _add_hills(image, model, v_h, hills, float(np.mean(gain[0])))
-
-
-def _add_hills(image: np.ndarray, model: CameraModel, v_h: float, seed: int,
-               gain: float) -> None:
-    """A ridge of hills standing on the horizon row ``v_h``, drawn in place."""
+def add_hills(image: np.ndarray, model: CameraModel, pose: CameraPose, seed: int,
+              light: WaterLight, visibility: float) -> None:
+    """A ridge of hills (the ridge line's seed ``seed``) standing on the horizon, drawn in
+    place on the uint8 (H, W, 3) ``image`` when the horizon is in view: wooded slopes lit
+    by ``light``, veiled by the haze of :data:`HILL_DISTANCE` metres of air of
+    ``visibility`` metres."""
     w, h = model.width, model.height
+    v_h = horizon_row(model, pose.pitch)
+    if v_h <= 0:
+        return
     rng = np.random.default_rng(seed)
     x = np.arange(w, dtype=np.float64)
     ridge = np.zeros(w)
@@ -101,10 +103,13 @@ def _add_hills(image: np.ndarray, model: CameraModel, v_h: float, seed: int,
         side = np.clip((x / w - rng.uniform(0.2, 0.8)) * rng.choice([-1, 1]) * 6, 0, 1)
         height = height * side
     top = v_h - height
-    yy = np.arange(h, dtype=np.float64)[:, None]
+    rows = min(h, int(math.ceil(v_h)) + 1)  # the hills end on the horizon
+    yy = np.arange(rows, dtype=np.float64)[:, None]
     cover = np.clip(np.minimum(yy + 0.5 - top[None, :], v_h + 1.0 - yy), 0, 1)
     cover = cover.astype(np.float32)[..., None]
-    hill = linear_to_srgb(np.array([0.10, 0.13, 0.09]) * 0.6 + 0.4 * np.array(
-        sky_linear(0.0))) * 255.0 * gain
-    img = image.astype(np.float32) * (1 - cover) + cover * hill.astype(np.float32)
-    image[:] = np.clip(img + 0.5, 0, 255).astype(np.uint8)
+    haze = float(np.exp(-HILL_DISTANCE / visibility))
+    lin = (np.asarray(HILL_ALBEDO) * diffuse_scale(light) * haze
+           + light.sky.horizon_rgb * light.gain * (1.0 - haze))
+    hill = linear_to_srgb(np.clip(lin, 0, 1)) * 255.0
+    img = image[:rows].astype(np.float32) * (1 - cover) + cover * hill.astype(np.float32)
+    image[:rows] = np.clip(img + 0.5, 0, 255).astype(np.uint8)

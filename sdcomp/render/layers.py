@@ -3,9 +3,9 @@
 For each placement: the stored pose nearest to the view of the (tilted) body
 (:func:`sprite_view`), the camera's projection linearised at the object (scale, rotation,
 foreshortening: a 2x3 affine map from sprite to image pixels), the mip level suited to that
-scale, the sprite's colour relit by the sun with the parts under the waterline attenuated and
-tinted by the water (:func:`shade`), its weight for the mask rule, and its shadow on the water
-(:func:`shadow`). The derivations are in docs/architecture.md.
+scale, the sprite's colour lit by the sun, the sky and the sea with the parts under a wavy
+waterline seen through the water (:func:`shade`), its weight for the mask rule, and its shadow
+in the water (:func:`shadow`). The derivations are in docs/architecture.md.
 """
 
 from __future__ import annotations
@@ -22,8 +22,19 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel, local_projection
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
-from .lighting import SUN, Lighting
-from .optics import REFRACTIVE_INDEX, fresnel, refracted_cos, sky_linear
+from .foam import FOAM_ALBEDO, contact_foam, ring_strength
+from .lighting import Lighting, irradiance_terms, lambert
+from .submerge import (
+    BLUR_PER_METRE,
+    LUMA,
+    WaterColumn,
+    submerge,
+    water_columns,
+    waterline_level,
+)
+from .water.optics import N_WATER
+
+RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
 
 
 @dataclass
@@ -46,6 +57,7 @@ class Layer:
     shadow_offset: tuple[float, float]  # pixels
     shadow_strength: float  # fraction of the light the shadow takes away
     shadow_blur: float  # pixels (Gaussian sigma)
+    full_area: float = 0.0  # pixels: the whole projected silhouette, inside the frame or not
 
 
 @dataclass(frozen=True)
@@ -60,6 +72,7 @@ class SpriteView:
     centre: tuple[float, float]  # the body origin's image position, pixels
     depth: float  # metres along the optical axis
     jac: np.ndarray  # (2, 3) image pixels per world metre at the object
+    to_frame: np.ndarray  # (2, 3) float64 sprite pixels -> frame pixels
     affine: np.ndarray  # (2, 3) float32 sprite pixels -> roi pixels
     roi: tuple[int, int, int, int]  # x0, y0, x1, y1 pixels, inside the frame
 
@@ -98,8 +111,24 @@ def sprite_view(model: CameraModel, lit: Lighting, camera: np.ndarray, pl: Place
     (a00, a01), (a10, a11) = (a * (1 << level)).tolist()
     c = 0.5 - n / 2
     tx, ty = u0 - 0.5 + (a00 + a01) * c, v0 - 0.5 + (a10 + a11) * c
-    # the sprite's corners (-0.5 and n - 0.5 in each direction) in the frame
-    lo, hi = -0.5, n - 0.5
+    to_frame = np.array([[a00, a01, tx], [a10, a11, ty]])
+    placed = canvas_placement(to_frame, n, 0, model)
+    if placed is None:
+        return None
+    affine, roi = placed
+    return SpriteView(pose_i, level, rot, vb, d_world, (u0, v0), z, jac, to_frame, affine,
+                      roi)
+
+
+def canvas_placement(to_frame: np.ndarray, n: int, pad: int, model: CameraModel
+                     ) -> tuple[np.ndarray, tuple[int, int, int, int]] | None:
+    """(affine (2, 3) float32 canvas pixels -> roi pixels, roi (x0, y0, x1, y1) inside the
+    frame) of an (n + 2 pad)-pixel square canvas whose pixel ``pad`` is the sprite's pixel 0
+    (``to_frame``: sprite pixels -> frame pixels); None when it misses the frame."""
+    (a00, a01, tx), (a10, a11, ty) = to_frame.tolist()
+    tx, ty = tx - (a00 + a01) * pad, ty - (a10 + a11) * pad
+    # the canvas's corners (-0.5 and n + 2 pad - 0.5 in each direction) in the frame
+    lo, hi = -0.5, n + 2 * pad - 0.5
     xs = [a00 * p + a01 * q + tx for p in (lo, hi) for q in (lo, hi)]
     ys = [a10 * p + a11 * q + ty for p in (lo, hi) for q in (lo, hi)]
     x0 = max(math.floor(min(xs)), 0)
@@ -108,9 +137,8 @@ def sprite_view(model: CameraModel, lit: Lighting, camera: np.ndarray, pl: Place
     y1 = min(math.ceil(max(ys)) + 1, model.height)
     if x1 <= x0 or y1 <= y0:
         return None
-    affine = np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32)
-    return SpriteView(pose_i, level, rot, vb, d_world, (u0, v0), z, jac, affine,
-                      (x0, y0, x1, y1))
+    return (np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32),
+            (x0, y0, x1, y1))
 
 
 def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level: int,
@@ -137,81 +165,111 @@ def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level:
 
 
 def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView,
-          pl: Placement, scene: Scene, lit: Lighting) -> None:
-    """Write the relit, submerged, premultiplied sRGB colour (0..255) of a sprite level
-    ``prepared`` (:meth:`SpriteSource.prepared`) to ``out[..., :3]`` and its weight
-    (coverage x water transmittance) to ``out[..., 4]``; ``out`` is (n, n, 5) float32,
-    ``height`` (n, n) float32 metres above the sea level of the floating body.
+          pl: Placement, scene: Scene, lit: Lighting, column: WaterColumn,
+          pitch_m: float, ripple_seed: tuple[int, int]) -> np.ndarray:
+    """Write the lit, submerged, premultiplied sRGB colour (0..255) of a sprite level
+    ``prepared`` (:meth:`SpriteSource.prepared`) to ``out[..., :3]`` and its weight to
+    ``out[..., 4]``; ``out`` is (n, n, 5) float32, ``height`` (n, n) float32 metres above
+    the sea level of the floating body, ``pitch_m`` metres per sprite pixel,
+    ``ripple_seed`` the seed of its waterline's ripples. Returns the depth (n, n) float32
+    of each pixel under the wavy surface, metres (negative: above it).
 
-    In linear RGB, with ``t`` the water's transmittance down to a pixel and back, ``r`` the
-    Fresnel reflectance toward the camera and ``u`` 1 under water, 0 above:
-    ``albedo x light x t x (1 - r u) + body x (1 - r) x (1 - t) + sky x r u``, times the
-    camera gain.
-    """
+    Linear radiance: Lambertian under the sun, the sky and the sea's upwelling light
+    (:func:`~sdcomp.render.lighting.lambert`) above a wavy waterline; below it, lit by the
+    refracted sun and seen through the water (:func:`~sdcomp.render.submerge.submerge`);
+    hazed with the distance; times the exposure gain, then sRGB."""
     alpha, albedo, normal = prepared[:3]
-    sun, wb, body = lit.sun, lit.wb, lit.body
-    sun_view = (view.basis @ (view.rot.T @ sun)).astype(np.float32)
-    light = normal @ sun_view
-    np.maximum(light, 0.0, out=light)
-    light *= np.float32(SUN * 0.5 * float(sun[2] > 0))
-    light += np.float32(scene.ambient)
-    w, h = scene.model.width, scene.model.height
-    u0, v0 = view.centre
-    r2 = ((u0 - w / 2) ** 2 + (v0 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
-    gain = wb * np.float32(1.0 - scene.effects.vignetting * min(r2, 1.0))
-    cz = float(view.towards_camera[2])
-    r = float(fresnel(cz))
-    k = scene.attenuation * (1.0 / float(refracted_cos(cz)) + 1.0 / lit.cos_sun_t)
-    depth = np.subtract(np.float32(pl.draft), height)  # metres under the surface
-    np.maximum(depth, 0.0, out=depth)
-    under = depth > 0
-    trans = np.exp(depth * np.float32(-k))
-    np.multiply(alpha, trans, out=out[..., 4])
-    light *= trans
-    light *= 1.0 - np.float32(r) * under
-    lin = albedo * (np.asarray(pl.tint, np.float32) * gain)
-    lin *= light[..., None]
-    # + (1 - t) x body x (1 - r) + u x sky x r: one (n, n, 2) @ (2, 3) product
-    terms = np.stack([1.0 - trans, under], axis=-1, dtype=np.float32)
-    lin += terms @ np.stack([body * gain * np.float32(1.0 - r),
-                             sky_linear(cz) * gain * np.float32(r)])
+    water = lit.water
+    to_view = (view.basis @ view.rot.T).astype(np.float32)  # world -> the pose's frame
+    up_dir = to_view[:, 2]
+    sun, sky, up = irradiance_terms(water, column.sun, column.deep)
+    tinted = albedo * np.asarray(pl.tint, np.float32)
+    above = lambert(tinted, normal, to_view @ lit.sun.astype(np.float32), up_dir, sun, sky,
+                    up)
+    params = scene.water
+    ripples = waterline_level(height.shape, pitch_m, ripple_height(params.wind),
+                              RIPPLE_LENGTH, ripple_seed)
+    depth = (np.float32(pl.draft) + ripples) - height
+    if float(depth.max()) > -0.02:
+        below = lambert(tinted, normal, to_view @ column.sun_dir.astype(np.float32), up_dir,
+                        sun, sky, up)
+        lin, weight = submerge(above, below, alpha, depth, column, pitch_m,
+                               BLUR_PER_METRE + 0.25 * slope_sd(params.wind))
+    else:
+        lin, weight = above, alpha
+    haze = math.exp(-float(np.linalg.norm(scene.camera.position - np.array([pl.x, pl.y, 0.0])))
+                    / params.visibility)
+    if haze < 0.999:
+        lin = lin * np.float32(haze) + water.sky.horizon_rgb * np.float32(1.0 - haze)
+    lin *= np.float32(water.gain)
+    out[..., 4] = weight
     np.multiply(linear_to_srgb(lin), (255.0 * alpha)[..., None], out=out[..., :3])
+    return depth
 
 
-def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting
-           ) -> tuple[tuple[float, float], float, float]:
-    """The object's shadow on the water: (offset pixels, strength, blur sigma pixels).
+def slope_sd(wind: float) -> float:
+    """Standard deviation of the sea's slope along one axis at ``wind`` m/s (Cox & Munk
+    1954, clean surface: mean square slope 0.003 + 0.00512 U)."""
+    return math.sqrt((0.003 + 0.00512 * max(wind, 0.0)) / 2.0)
 
-    It falls under water at the depth light scatters back from (or on the floor in clear
-    water), displaced away from the sun."""
-    c = scene.attenuation
-    d_s = min(1.0 / c, scene.floor_depth)
-    sx, sy, _ = lit.sun.tolist()
-    sun_h = max(math.hypot(sx, sy), 1e-9)
-    k = d_s * (sun_h / REFRACTIVE_INDEX) / max(lit.cos_sun_t, 0.05) / sun_h
-    off = view.jac @ np.array([-sx * k, -sy * k, -d_s / REFRACTIVE_INDEX])
-    t_floor = math.exp(-c * scene.floor_depth * 2)
-    strength = 0.45 * (1 - math.exp(-2 * c * d_s)) + 0.45 * t_floor
-    blur = min(max(0.08 * d_s * model.fx / view.depth, 0.0), 12.0)  # metres / (m per px)
+
+def ripple_height(wind: float) -> float:
+    """Standard deviation (metres) of the waves shorter than an object that run along its
+    hull: slope times wavelength over 2 pi at :data:`RIPPLE_LENGTH`."""
+    return slope_sd(wind) * RIPPLE_LENGTH / (2 * math.pi)
+
+
+def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
+           column: WaterColumn, size_m: float) -> tuple[tuple[float, float], float, float]:
+    """The object's shadow in the water: (offset pixels, strength, blur sigma pixels).
+
+    What a shadow takes away is the direct sun's share of the light scattered back up by
+    the water under it (or reflected by a shallow bottom): that light comes from a depth of
+    about ``1 / (2 K_d)`` (or the bottom's), where the shadow lies displaced away from the
+    sun along the refracted sun ray and spread by scattering, so a shadow is strong and
+    sharp in turbid water and faint and diffuse in clear water. ``size_m`` is the object's
+    size across, metres."""
+    water = lit.water
+    s = lit.sun
+    l_w = column.deep
+    e_dir = column.sun * max(float(s[2]), 0.0)
+    e_all = e_dir + water.sky_irradiance
+    lum = LUMA.astype(np.float64)
+    share = float(e_dir @ lum) / max(float(e_all @ lum), 1e-9)
+    if share <= 0.01:
+        return (0.0, 0.0), 0.0, 0.0
+    from_water = float(l_w @ lum) / max(float((l_w + column.reflection) @ lum), 1e-9)
+    kd = float(np.mean(water.diffuse_attenuation))
+    z = 1.0 / (2.0 * max(kd, 1e-3))
+    if scene.water.depth is not None:
+        z = min(z, scene.water.depth)
+    sw = column.sun_dir
+    sun_h = max(math.hypot(float(sw[0]), float(sw[1])), 1e-9)
+    drift = z * sun_h / max(float(sw[2]), 0.05)  # metres: horizontal shift at depth z
+    spread = 0.3 * z + 0.5 * drift
+    off = view.jac @ np.array([-sw[0] / sun_h * drift, -sw[1] / sun_h * drift,
+                               -z / N_WATER])
+    strength = share * from_water * size_m / (size_m + spread)
+    blur = max(spread * model.fx / view.depth, 0.0)
     return (float(off[0]), float(off[1])), float(strength), blur
 
 
-def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Lighting
-               ) -> Layer | None:
-    """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`; None when it is
-    not in the frame."""
+def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scene: Scene,
+                lit: Lighting, column: WaterColumn) -> list[Layer]:
+    """Placement ``i`` of ``scene`` drawn from ``src`` as a :class:`Layer`, seen as ``view``
+    (:func:`sprite_view`) through the water ``column``, and the foam ring around its
+    waterline when it has one (:func:`foam_layer`)."""
     model = scene.model
-    view = sprite_view(model, lit, scene.camera.position, pl, src)
-    if view is None:
-        return None
     prepared = src.prepared(view.pose, view.level)
     height = prepared[3]
     if pl.roll or pl.pitch:
         height = tilted_heights(height, view.basis, src, view.level, view.rot[2])
+    pitch_m = src.metres_per_pixel * (1 << view.level)
     # channels: premultiplied sRGB colour (3), coverage, weight
     stack = np.empty(prepared[0].shape + (5,), np.float32)
     stack[..., 3] = prepared[0]
-    shade(stack, prepared, height, view, pl, scene, lit)
+    depth = shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
+                  (scene.water.seed, i))
     x0, y0, x1, y1 = view.roi
     warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -221,19 +279,67 @@ def make_layer(i: int, pl: Placement, src: SpriteSource, scene: Scene, lit: Ligh
     # to 1 (within rounding): capped at 1 in place
     coverage = warped[..., 3:5]
     np.minimum(coverage, 1.0, out=coverage)
-    offset, strength, blur = shadow(view, model, scene, lit)
-    return Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
-                 warped[..., 3], warped[..., 4], offset, strength, blur)
+    size_m = math.sqrt(float(prepared[0].sum())) * pitch_m
+    offset, strength, blur = shadow(view, model, scene, lit, column, size_m)
+    a = view.affine
+    full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
+    layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
+                  warped[..., 3], warped[..., 4], offset, strength, blur, full)
+    foam = foam_layer(i, view, prepared[0], depth, pitch_m, scene, lit, column)
+    return [layer] if foam is None else [layer, foam]
+
+
+def foam_layer(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
+               pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
+               ) -> Layer | None:
+    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`) as a
+    :class:`Layer` of role WATER, drawn under every object (:func:`build_layers`: the
+    objects' coverage hides it and the masks are unchanged), lit like the water's surface;
+    None when there is none."""
+    ring = contact_foam(alpha, depth, pitch_m, ring_strength(scene.water.wind),
+                        (scene.water.seed, i))
+    if ring is None:
+        return None
+    pad, cover = ring
+    placed = canvas_placement(view.to_frame, alpha.shape[0], pad, scene.model)
+    if placed is None:
+        return None
+    affine, roi = placed
+    water = lit.water
+    e = column.sun * max(float(lit.sun[2]), 0.0) + water.sky_irradiance
+    lin = np.clip(e * (FOAM_ALBEDO / math.pi * water.gain), 0.0, 1.0)
+    srgb = linear_to_srgb(lin.astype(np.float32)) * np.float32(255.0)
+    stack = np.empty(cover.shape + (5,), np.float32)
+    stack[..., :3] = cover[..., None] * srgb
+    stack[..., 3] = cover
+    stack[..., 4] = cover
+    x0, y0, x1, y1 = roi
+    warped = cv2.warpAffine(stack, affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
+                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    coverage = warped[..., 3:5]
+    np.minimum(coverage, 1.0, out=coverage)
+    return Layer(i, Role.WATER, 0, view.depth, roi, warped[..., :3], warped[..., 3],
+                 warped[..., 4], (0.0, 0.0), 0.0, 0.0)
 
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource]
                  ) -> list[Layer]:
-    """The layers of every placement in the frame, far to near; ``sprites`` maps asset
-    keys to their sprites."""
-    layers = []
+    """The layers of every placement in the frame: the foam rings (role WATER) first, then
+    the objects far to near; ``sprites`` maps asset keys to their sprites."""
+    seen = []
     for i, pl in enumerate(scene.placements):
-        layer = make_layer(i, pl, sprites[pl.asset], scene, lit)
-        if layer is not None:
-            layers.append(layer)
-    layers.sort(key=lambda lay: -lay.depth)  # far first
+        src = sprites[pl.asset]
+        view = sprite_view(scene.model, lit, scene.camera.position, pl, src)
+        if view is not None:
+            seen.append((i, pl, src, view))
+    if not seen:
+        return []
+    local = [lit.water.at(*view.centre) for *_, view in seen]  # (sun, l_w) at each
+    columns = water_columns(lit.water, np.array([view.towards_camera for *_, view in seen]),
+                            np.array([lw for _, lw in local]), np.array([s for s, _ in local]),
+                            slope_sd(scene.water.wind))
+    layers = [lay for (i, pl, src, view), column in zip(seen, columns, strict=True)
+              for lay in make_layers(i, pl, src, view, scene, lit, column)]
+    # the foam lies on the water, under every object (it never changes a mask); then far first
+    layers.sort(key=lambda lay: (lay.role is not Role.WATER, -lay.depth))
     return layers

@@ -1,14 +1,10 @@
-"""Periodic ground textures: sea-surface waves, sea floor and land, as mip pyramids.
+"""The textures of a run (:class:`Textures`): the water's tiles
+(:class:`~sdcomp.render.water.WaterTextures`) and the land's albedo tile.
 
-Everything here is a pure function of its arguments. Conventions:
-
-- Texture tiles are periodic, stored padded to twice their period (so any crop up to one
-  period long starts anywhere in the first period) and as a mip pyramid (level ``k`` has a
-  pixel pitch of ``pitch * 2**k`` metres).
-- Wave tiles have 3 uint8 channels (3, not 4: OpenCV's per-pixel colour transform is fast
-  for 3): slope along x and y (``128 + 40 * slope / sd``) and sparkle (0..255, high on steep
-  facets near crests: they flash in the sun and break into whitecaps in strong wind).
-- Floor and land tiles are sRGB uint8 albedo.
+Ground tiles here are periodic, stored padded to twice their period (so any crop up to one
+period long starts anywhere in the first period) and as a mip pyramid (level ``k`` has a pixel
+pitch of ``pitch * 2**k`` metres); land tiles are sRGB uint8 albedo. Pure functions of their
+arguments.
 """
 
 from __future__ import annotations
@@ -20,9 +16,8 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from .optics import SLOPE_SCALE
+from .water import WaterTextures
 
-WAVE_DIRECTIONS = (0.0, 45.0, 90.0, 135.0)  # degrees: one wave tile per swell direction
 
 @dataclass(frozen=True, eq=False)
 class Texture:
@@ -126,67 +121,6 @@ def _frequencies(n: int, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return kx, ky, kk
 
 
-def wave_tile(seed: int, direction_deg: float, n: int = 512, pitch: float = 0.04) -> Texture:
-    """A periodic sea-surface tile: wind waves (a power-law spectrum, mostly along
-    ``direction_deg`` in the tile frame, x to the right, y down) plus a swell.
-
-    Returns a :class:`Texture` of 3 uint8 channels (see the module docstring).
-    """
-    rng = np.random.default_rng([seed, 7919, int(round(direction_deg * 10))])
-    kx, ky, kk = _frequencies(n, pitch)
-    theta = math.radians(direction_deg)
-    cos_d = (kx * math.cos(theta) + ky * math.sin(theta)) / kk
-    spread = 0.35 + 0.65 * cos_d ** 2  # waves travel mostly along the wind
-    wind = kk ** -1.9 * spread * (kk > 1 / (n * pitch) * 1.5) * (kk < 4.0)
-    swell_k = 1.0 / (n * pitch / 3)  # three swell crests per period
-    swell = np.exp(-((kk - swell_k) / (0.35 * swell_k)) ** 2) * cos_d ** 8
-    swell *= wind.max() * 0.6
-    h = _spectral_noise(rng, n, np.sqrt(wind + swell))
-    gy, gx = np.gradient(h)
-    sd = max(np.std(gx), np.std(gy), 1e-12)
-    sx, sy = gx / sd, gy / sd
-    steep = np.hypot(sx, sy) * (0.6 + 0.4 * np.clip(h, 0, 2))  # steep, high on crests
-    sparkle = np.clip((steep - 1.4) / 1.6, 0, 1) ** 2
-    tile = np.stack([128 + SLOPE_SCALE * sx, 128 + SLOPE_SCALE * sy, 255 * sparkle], axis=-1)
-    return _pyramid(np.clip(np.rint(tile), 0, 255).astype(np.uint8), pitch)
-
-
-def floor_tile(seed: int, rocks: float, n: int = 512, pitch: float = 0.04) -> Texture:
-    """A periodic sea-floor albedo tile (sRGB uint8, 3 channels): rippled sand with rocks
-    and debris covering about ``rocks`` (0..1) of the area."""
-    rng = np.random.default_rng([seed, 104729])
-    kx, ky, kk = _frequencies(n, pitch)
-    coarse = _spectral_noise(rng, n, kk ** -1.6 * (kk > 0.1))
-    ripples = _spectral_noise(rng, n, np.exp(-((kk - 1.5) / 0.3) ** 2) * (kx != 0))
-    sand = np.array([150, 134, 100], np.float32)
-    shade = 1.0 + 0.10 * coarse + 0.05 * ripples
-    img = sand[None, None, :] * shade[..., None]
-    if rocks > 0:
-        area = float(n * n) * float(rocks)
-        drawn = 0.0
-        canvas = np.zeros((n, n), np.float32)
-        colours = np.zeros((n, n, 3), np.float32)
-        while drawn < area:
-            r = rng.uniform(0.15, 0.9) / pitch  # radius in pixels
-            cx, cy = rng.uniform(0, n, 2)
-            ax, ay = r, r * rng.uniform(0.5, 1.0)
-            angle = rng.uniform(0, 180)
-            tone = rng.uniform(0.25, 0.65)
-            rgb = np.array([95, 90, 80], np.float32) * tone / 0.45
-            for dx in (-n, 0, n):  # draw wrapped copies so the tile stays periodic
-                for dy in (-n, 0, n):
-                    centre = (int(cx + dx), int(cy + dy))
-                    if -2 * r < centre[0] < n + 2 * r and -2 * r < centre[1] < n + 2 * r:
-                        cv2.ellipse(canvas, centre, (int(ax), int(ay)), angle, 0, 360, 1.0, -1)
-                        cv2.ellipse(colours, centre, (int(ax), int(ay)), angle, 0, 360,
-                                    rgb.tolist(), -1)
-            drawn += math.pi * ax * ay
-        rock_shade = 1.0 + 0.25 * coarse[..., None]
-        mask = cv2.GaussianBlur(canvas, (0, 0), 1.0)[..., None]
-        img = img * (1 - mask) + colours * rock_shade * mask
-    return _pyramid(np.clip(np.rint(img), 0, 255).astype(np.uint8), pitch)
-
-
 def land_tile(seed: int, n: int = 256, pitch: float = 0.25) -> Texture:
     """A periodic land-cover tile (sRGB uint8, 3 channels): grass, scrub and bare soil."""
     rng = np.random.default_rng([seed, 15485863])
@@ -202,15 +136,13 @@ def land_tile(seed: int, n: int = 256, pitch: float = 0.25) -> Texture:
 
 @dataclass(frozen=True, eq=False)
 class Textures:
-    """The ground textures of a run: wave tiles (one per :data:`WAVE_DIRECTIONS`), the sea
-    floor and land."""
+    """The textures of a run: the water's tiles and the land's."""
 
-    waves: tuple[Texture, ...]
-    floor: Texture
+    water: WaterTextures
     land: Texture
 
     @classmethod
-    def build(cls, seed: int, rocks: float) -> Textures:
-        """The textures of a run of ``seed`` with ``rocks`` (0..1) of the floor covered."""
-        return cls(tuple(wave_tile(seed, d) for d in WAVE_DIRECTIONS), floor_tile(seed, rocks),
-                   land_tile(seed))
+    def build(cls, seed: int) -> Textures:
+        """The textures of a run of ``seed`` (0.5 s, 40 MB; more water tiles are made on
+        first use: :meth:`WaterTextures.build`)."""
+        return cls(WaterTextures.build(seed), land_tile(seed))

@@ -201,13 +201,18 @@ def format_table(stats: dict) -> str:
 # --------------------------------------------------------------------------- figure
 
 def _water_rgb(name: str) -> tuple[float, float, float]:
-    """Bar colour of a water colour name or "R,G,B" (grey when it is neither)."""
-    from ..scene.water import parse_water
+    """Bar colour of a water name or "R,G,B" (grey when it is neither): a custom colour
+    itself, else the swatch of the (first) type's middle constituents."""
+    from ..render.water.optics import iops, swatch
+    from ..scene.water import WATER_TYPES, parse_water
 
     try:
-        rgb = parse_water(name)[1]
+        _, types, rgb = parse_water(name)
     except UserError:
         return (0.5, 0.5, 0.5)
+    if rgb is None:
+        chl, cdom, tsm = (math.sqrt(lo * hi) for lo, hi in WATER_TYPES[types[0]])
+        rgb = swatch(*iops(chl, cdom, tsm))
     return (rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0)
 
 
@@ -227,12 +232,7 @@ def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> b
     # metadata histograms
     for ax, (_, label, unit) in zip((axes[0, 2], axes[1, 0], axes[1, 1]), META_HISTOGRAMS,
                                     strict=True):
-        h = stats["meta"][label]
-        if h["n"]:
-            ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
-        ax.set_title(label)
-        ax.set_xlabel(f"{label}, {unit}")
-        ax.set_ylabel("images")
+        _plot_meta(ax, stats["meta"][label], label, unit)
     _plot_water(axes[1, 2], stats)
     fig.tight_layout()
     buf = io.BytesIO()
@@ -241,6 +241,23 @@ def plot_stats(stats: dict, path: str | Path | None = None, dpi: int = 100) -> b
     if path is not None:
         atomic_write_bytes(path, data)
     return data
+
+
+def _plot_meta(ax, h: dict, label: str, unit: str) -> None:
+    """The histogram ``h`` of one metadata value over the images; a value that is the same
+    in every image is said in words instead (a histogram of it is one bar at a meaningless
+    place)."""
+    ax.set_title(label)
+    if h["n"] and h["min"] == h["max"]:
+        ax.text(0.5, 0.5, f"constant:\n{h['min']:g} {unit}\n(all {h['n']} images)",
+                ha="center", va="center", fontsize=14, transform=ax.transAxes)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        return
+    if h["n"]:
+        ax.stairs(h["counts"], h["edges"], fill=True, alpha=0.7)
+    ax.set_xlabel(f"{label}, {unit}")
+    ax.set_ylabel("images")
 
 
 def _plot_counts(ax, stats: dict) -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..io.journal import read_journal
-from ..io.layout import ENTRIES, FORMAT, DatasetLayout
+from ..io.layout import ENTRIES, FORMAT, DatasetLayout, check_format_version
 from ..io.writers import writers_for
 from ..scene.config import GeneratorConfig
 from ..util.files import atomic_path
@@ -60,6 +60,7 @@ def read_shard(folder: str | Path) -> Shard:
     except (OSError, ValueError):
         raise UserError(f"{folder} is not an sdcomp dataset folder (no valid dataset.json): "
                         f"give the --out folders of the --shard runs") from None
+    check_format_version(meta, folder, "merge")
     if "shard" not in meta:
         raise UserError(f"{folder} is a whole dataset, not a shard (its run had no --shard): "
                         f"give the --out folders of the --shard K/N runs")

@@ -28,11 +28,13 @@ from ..io.layout import (
     FORMAT_VERSION,
     LAYOUT_ORDER,
     DatasetLayout,
+    check_format_version,
 )
 from ..io.writers import LabelWriter, writers_for
 from ..scene.config import GeneratorConfig
 from ..util.files import atomic_write_bytes
 from .options import RunOptions, run_indices
+from .record import split_of
 from .shards import shard_text
 
 
@@ -77,8 +79,11 @@ def remove_dataset(out: Path, extra: tuple[str, ...] = ()) -> None:
 
 
 def folders(layout: DatasetLayout, writers: list[LabelWriter]) -> list[Path]:
-    """The folders a run makes: images, masks, annotations, and the label writers'."""
-    out = [layout.root / name for name in CORE_FOLDERS]
+    """The folders a run makes: images and masks with their split sub-folders, and the
+    label writers' (annotations/, labels/ and its split sub-folders)."""
+    out = []
+    for name in CORE_FOLDERS:
+        out += [layout.root / name, *layout.split_folders(layout.root / name)]
     for w in writers:
         out += [f for f in w.folders(layout) if f not in out]
     return out
@@ -94,9 +99,11 @@ def sweep_tmp(layout: DatasetLayout, writers: list[LabelWriter]) -> None:
 
 
 def image_files(config: GeneratorConfig, layout: DatasetLayout, index: int) -> list[Path]:
-    """Every file a run writes for image ``index``: image, mask and label files."""
-    return [layout.image_file(index, config.image_format), layout.mask_file(index),
-            *(p for w in writers_for(config) for p in w.image_files(layout, index))]
+    """Every file a run writes for image ``index``: image, mask and label files (in the
+    image's split folders)."""
+    split = split_of(config.seed, index, config.val_fraction)
+    return [layout.image_file(index, config.image_format, split), layout.mask_file(index, split),
+            *(p for w in writers_for(config) for p in w.image_files(layout, index, split))]
 
 
 def _never_begun(out: Path) -> bool:
@@ -106,8 +113,8 @@ def _never_begun(out: Path) -> bool:
     for p in out.iterdir():
         if p.name not in ENTRIES and not p.name.endswith(".tmp"):
             return False
-        if p in (layout.images, layout.masks) and any(q for q in p.iterdir()
-                                                      if not q.name.endswith(".tmp")):
+        if p in (layout.images, layout.masks) and any(
+                q for q in p.rglob("*") if q.is_file() and not q.name.endswith(".tmp")):
             return False
         if p == layout.journal and p.stat().st_size:
             return False
@@ -117,7 +124,8 @@ def _never_begun(out: Path) -> bool:
 def resumable(config: GeneratorConfig, out: Path,
               shard: tuple[int, int] | None = None) -> set[int]:
     """The images of ``out`` a resumed run of ``config`` (and ``shard``) keeps: those with a
-    journal line and all their files. UserError when ``out`` was made with other options."""
+    journal line and all their files. UserError when ``out`` was made with other options
+    (a larger ``n`` without a shard is allowed: the run grows) or another dataset format."""
     layout = DatasetLayout(out)
     if not layout.meta.exists() and _never_begun(out):
         return set()  # killed between creating the folders and writing dataset.json
@@ -128,6 +136,7 @@ def resumable(config: GeneratorConfig, out: Path,
     except (OSError, ValueError):
         raise UserError(f"--resume: {out} is not an sdcomp dataset (no valid dataset.json); "
                         f"use --overwrite to replace it or choose another --out") from None
+    check_format_version(meta, out, "--resume")
     _check_same_run(config, meta, out, shard)
     if not layout.journal.exists():
         return set()
@@ -138,12 +147,23 @@ def resumable(config: GeneratorConfig, out: Path,
 
 def _check_same_run(config: GeneratorConfig, meta: dict, out: Path,
                     shard: tuple[int, int] | None) -> None:
-    """UserError unless dataset.json ``meta`` records ``config`` and ``shard``."""
+    """UserError unless dataset.json ``meta`` records ``config`` and ``shard``; a larger
+    ``n`` (the run grows: image i depends only on (config, i)) is allowed without a shard."""
     old = meta.get("config", {})
     new = config.to_dict()
     # a field the folder's sdcomp did not have yet is at its default (the old behaviour)
     defaults = GeneratorConfig().to_dict()
     diff = [k for k in new if old.get(k, defaults[k]) != new[k]]
+    if diff and diff[0] == "n" and isinstance(old.get("n"), int):
+        if shard is not None or meta.get("shard"):
+            raise UserError(f"--resume --n {new['n']}: {out} is a shard of a run of --n "
+                            f"{old['n']}; shards cannot grow (their image ranges depend on "
+                            f"--n): grow the merged dataset instead")
+        if new["n"] < old["n"]:
+            raise UserError(f"--resume --n {new['n']}: {out} holds a run of --n {old['n']}; "
+                            f"a resumed run can only grow: use --n {old['n']} or larger, or "
+                            f"--overwrite")
+        diff = diff[1:]
     if diff:
         k = diff[0]
         raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
@@ -194,7 +214,8 @@ def write_annotations(config: GeneratorConfig, out: Path, status: str,
     counts.setdefault("val", 0)
     counts["objects_dropped"] = tally["dropped"]
     counts["empty_images"] = tally["empty"]
-    entries = {"images": "images/", "masks": "masks/ (16-bit PNG instance ids)",
+    entries = {"images": "images/train/, images/val/",
+               "masks": "masks/train/, masks/val/ (16-bit PNG instance ids)",
                "journal": "records.jsonl"}
     for w in writers:
         entries.update(w.layout_entries())

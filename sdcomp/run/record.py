@@ -1,9 +1,10 @@
 """One image of a run: render it, write its files, return its journal record.
 
-The record is ``{"index", "split", "image": {id, file_name, width, height, mask_file, meta},
-"annotations": [...]}`` (see :mod:`sdcomp.io.journal`); the image, its 16-bit mask and the
-label writers' per-image files are written (each atomically) before it is returned, so a
-journaled image always has its files.
+The record is ``{"index", "split", "image": {id, file_name, width, height, mask_file, camera,
+meta}, "annotations": [...]}`` (see :mod:`sdcomp.io.journal`); the image, its 16-bit mask and
+the label writers' per-image files are written (each atomically) before it is returned, so a
+journaled image always has its files. The image id is the index, the number in the file name
+(``train/000017.jpg`` has id 17), as Ultralytics' ``save_json`` and most tools take it.
 """
 
 from __future__ import annotations
@@ -13,8 +14,8 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-from ..annotate import coco_annotations, image_meta
-from ..io.layout import DatasetLayout, image_name
+from ..annotate import camera_record, coco_annotations, image_meta
+from ..io.layout import DatasetLayout, split_name
 from ..io.png import encode_png16
 from ..io.writers import LabelWriter
 from ..pipeline import Generator
@@ -71,16 +72,16 @@ def make_record(gen: Generator, index: int, layout: DatasetLayout,
     record."""
     config = gen.config
     frame = gen.render(index)
-    name = image_name(index, config.image_format)
-    mask_name = image_name(index, "png")
-    data = encode_image(frame.image, config.image_format, frame.scene.effects.jpeg_quality)
+    split = split_of(config.seed, index, config.val_fraction)
+    name = split_name(index, config.image_format, split)
+    mask_name = split_name(index, "png", split)
+    data = encode_image(frame.image, config.image_format, frame.scene.jpeg_quality)
     files.write_file(layout.images / name, data)
     files.write_file(layout.masks / mask_name, encode_png16(frame.instances))
     anns = coco_annotations(frame)
     for writer in writers:  # before the record is returned (and journaled)
-        writer.write_image(layout, index, name, frame.instances, anns)
+        writer.write_image(layout, index, split, frame.instances, anns)
     h, w = frame.instances.shape
-    image = {"id": index + 1, "file_name": name, "width": w, "height": h,
-             "mask_file": mask_name, "meta": image_meta(frame)}
-    return {"index": index, "split": split_of(config.seed, index, config.val_fraction),
-            "image": image, "annotations": anns}
+    image = {"id": index, "file_name": name, "width": w, "height": h, "mask_file": mask_name,
+             "camera": camera_record(frame, config.camera), "meta": image_meta(frame)}
+    return {"index": index, "split": split, "image": image, "annotations": anns}

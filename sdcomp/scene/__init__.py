@@ -9,6 +9,6 @@
 - :mod:`~sdcomp.scene.sample`: :func:`sample_scene`, the scene of image ``i``.
 """
 
-from .scene import Effects, FeatureSeeds, Placement, Role, Scene, Shore, on_land
+from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 
-__all__ = ["Effects", "FeatureSeeds", "Placement", "Role", "Scene", "Shore", "on_land"]
+__all__ = ["FeatureSeeds", "Placement", "Role", "Scene", "Shore", "on_land"]

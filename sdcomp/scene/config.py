@@ -14,67 +14,44 @@ Precedence: defaults < ``--preset`` < ``--config FILE`` < flags on the command l
 from __future__ import annotations
 
 import difflib
-import math
-import tomllib
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
 from ..errors import SettingError, UserError
+from ..util.log import get_logger
 from .camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .camera import PRESETS as CAMERA_PRESETS
+from .look import PRESETS as LOOK_PRESETS
+from .look import RECORDINGS
 from .objects import (
     CLUTTER_KINDS,
     DEFAULT_CLUTTER_KINDS,
     SUPERCATEGORIES,
+    ObjectSpec,
     object_kind,
+    object_spec,
     resolve_clutter_kinds,
 )
 from .params import Param
 from .presets import PRESETS, preset
-from .settings import check_float, int_pair, names, setting, setting_of, toml_value
-from .water import WATER_COLORS, parse_water
+from .settings import check_float, int_pair, load_toml, names, setting, setting_of, toml_value
+from .water import SKY_KINDS, WATER_NAMES, parse_water
 
 IMAGE_FORMATS = ("jpg", "png")
 #: annotation formats of --format (COCO JSON, Ultralytics YOLO label files)
 LABEL_FORMATS = ("coco", "yolo")
 MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 digits)
-
-
-def _positive(v: Any) -> bool:
-    """Whether ``v`` (a number or its text) is a finite number above 0."""
-    try:
-        return 0.0 < float(v) < math.inf
-    except ValueError:
-        return False
-
-
-@dataclass(frozen=True)
-class ObjectSpec:
-    """An object of interest: a built-in mesh or kind name (a kind stands for all its
-    variants, :mod:`sdcomp.scene.objects`) or a mesh file, its COCO category, and its
-    ``weight``: how often it is drawn relative to the other objects (class proportions)."""
-
-    mesh: str = "bluerov2"
-    category: str = ""
-    weight: float = 1.0
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
-            raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
-                                         "bluerov2-heavy, swimmer, boat, jetski, "
-                                         "life_saving_appliances, buoy) or a mesh file path")
-        w = self.weight
-        if isinstance(w, bool) or not isinstance(w, (int, float, str)) or not _positive(w):
-            raise SettingError("weight", f"{{name}} {w!r} must be a positive number (how "
-                                         f"often this object is drawn relative to the others)")
-        object.__setattr__(self, "weight", float(w))
-        if not self.category:
-            object.__setattr__(self, "category", Path(self.mesh).stem if Path(
-                self.mesh).suffix else self.mesh)
-        if not isinstance(self.category, str) or not self.category.strip():
-            raise SettingError("category", f"{{name}} {self.category!r} must be a non-empty "
-                                           f"name")
+#: fields of earlier versions and what took their place: a config naming one still loads
+#: (with a warning), the value is not used
+RETIRED = {
+    "ambient": "the sky model sets the light from the sky",
+    "white_balance": "--look draws the white balance per image",
+    "noise": "--look draws the sensor noise per image",
+    "vignetting": "--look draws the vignetting per image",
+    "exposure": "the camera exposes automatically; --look draws its bias per image",
+    "rocks": "the sea floor is sand (--shallow, --floor-depth)",
+}
 
 
 @dataclass(frozen=True)
@@ -96,6 +73,10 @@ class GeneratorConfig:
                                   "lo-hi or list)", "Q", 1.0, 100.0, integer=True)
     min_visible_px: int = setting(4, "int", "objects with fewer visible pixels are not "
                                   "annotated (counted as dropped)", "PX", 1, 100_000_000)
+    min_in_frame: float = setting(0.25, "float", "objects cut by the frame's edge are "
+                                  "annotated only when at least this fraction of their "
+                                  "projected silhouette is inside the frame (no slivers at "
+                                  "the edges; 0: all)", "F", 0.0, 1.0)
     amodal: bool = setting(False, "bool", "also store amodal masks (the whole projected "
                            "object, ignoring occlusion and water)")
     format: tuple[str, ...] = setting(("coco",), "custom", "annotation formats: coco (JSON), "
@@ -123,17 +104,23 @@ class GeneratorConfig:
                                "(two lists of one length: a joint distribution, e.g. from "
                                "flight logs)")
     # water
-    water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "water colours, "
-                                     "one per image at random: brown, blue, green or R,G,B "
-                                     "(several allowed)", "COLOR")
-    turbidity: Param = setting("0.1-0.9", "param", "turbidity 0 (clear, 0.05/m) to 1 (murky, "
-                               "5/m attenuation)", "T", 0.0, 1.0)
-    wind: Param = setting("1-8", "param", "wind speed, m/s: wave roughness, glint spread, "
-                          "whitecaps above 5", "M/S", 0.0, 25.0, "m/s")
-    floor_depth: Param = setting("2-12", "param", "sea-floor depth, metres (seen through clear "
-                                 "water)", "M", 0.5, 200.0, "m")
-    whitecaps: float = setting(1.0, "float", "whitecap amount at a given wind (0 = none)", "X",
-                               0.0, 5.0)
+    water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "waters, one per "
+                                     "image at random: ocean, coastal, turbid, algae, lake, "
+                                     "the paper's brown (turbid), blue (ocean or coastal), "
+                                     "green (lake or algae), or R,G,B", "WATER")
+    turbidity: Param = setting("0.1-0.9", "param", "how much the water holds, 0 (the clearest "
+                               "of its type) to 1 (the murkiest): colour and attenuation",
+                               "T", 0.0, 1.0)
+    wind: Param = setting("1-8", "param", "wind speed, m/s: waves, sun glitter, whitecaps "
+                          "above ~5", "M/S", 0.0, 25.0, "m/s")
+    shallow: float = setting(0.3, "float", "probability that a sandy bottom lies within "
+                             "--floor-depth (visible through clear water)", "P", 0.0, 1.0)
+    floor_depth: Param = setting("1.5-15", "param", "depth of a shallow bottom, metres", "M",
+                                 0.5, 200.0, "m")
+    whitecaps: float = setting(1.0, "float", "whitecap coverage relative to the open sea's "
+                               "at the same wind (0 = none)", "X", 0.0, 5.0)
+    glitter: bool = setting(True, "bool", "draw the sun's glitter as sparkles (off: the "
+                            "glint's mean brightness only; 0.5-2 ms less per 416 px image)")
     backgrounds: str | None = setting(None, "custom", "composite onto your own empty-water "
                                       "photos in DIR instead of procedural water", "DIR")
     # light
@@ -141,8 +128,11 @@ class GeneratorConfig:
                                    "DEG", 5.0, 90.0, "degrees")
     sun_azimuth: Param = setting("0-360", "param", "sun azimuth, degrees", "DEG", -360.0,
                                  720.0, "degrees")
-    ambient: Param = setting("0.3-0.5", "param", "ambient sky light (linear, sun = 2.2)", "L",
-                             0.0, 2.0)
+    sky: tuple[str, ...] = setting(SKY_KINDS, "custom", "skies, one per image at random: "
+                                   "clear, broken (clouds), overcast, drawn as drones fly "
+                                   "(0.4, 0.45, 0.15 of the time)", "SKY")
+    cloud_cover: Param = setting("0.15-0.75", "param", "cloud cover of broken skies (0-1)",
+                                 "C", 0.0, 1.0)
     shadows: bool = setting(True, "bool", "draw object shadows on the water and sea floor")
     # objects of interest
     objects: tuple[ObjectSpec, ...] = setting(
@@ -163,23 +153,21 @@ class GeneratorConfig:
     clutter_kinds: tuple[str, ...] = setting(DEFAULT_CLUTTER_KINDS, "custom", "clutter kinds "
                                              f"to use: {', '.join(CLUTTER_KINDS)} (the default "
                                              "drops kinds that are objects)", "KIND")
-    rocks: float = setting(0.35, "float", "fraction of the sea floor covered by rocks and "
-                           "debris (0 = none)", "F", 0.0, 1.0)
-    shore: float = setting(0.15, "float", "probability of a shoreline with land at a frame "
-                           "edge", "P", 0.0, 1.0)
+    shore: float = setting(0.0, "float", "probability of a shoreline with land at a frame "
+                           "edge (off by default: the land is a flat textured meadow, not "
+                           "yet an aerial photo of a shore)", "P", 0.0, 1.0)
     hills: float = setting(0.7, "float", "probability of hills on the horizon when the horizon "
                            "is in view", "P", 0.0, 1.0)
-    # camera effects
-    exposure: Param = setting("-0.3-0.3", "param", "exposure jitter, stops", "STOPS", -3.0, 3.0,
-                              "stops")
-    white_balance: Param = setting("0-0.06", "param", "white-balance jitter: red and blue "
-                                   "gains within 1 +- A", "A", 0.0, 0.5)
-    noise: Param = setting("0-3", "param", "sensor noise standard deviation, 8-bit levels",
-                           "SIGMA", 0.0, 50.0)
-    motion_blur: float = setting(0.1, "float", "probability of motion blur", "P", 0.0, 1.0)
+    # the drone camera's look
+    look: str = setting("auto", "custom", "camera look (lens, exposure, colour, noise, "
+                        "sharpening, compression, each drawn per image): mavic2pro, "
+                        "phantom4pro, zenmuse-x5, clean (none), or auto (that of --camera)",
+                        "NAME")
+    recording: str = setting("video", "custom", "what the camera records: video (4K H.264/"
+                             "H.265 frames) or photo (full-resolution JPEG)", "video|photo")
+    motion_blur: float = setting(0.5, "float", "probability of motion blur along the flight",
+                                 "P", 0.0, 1.0)
     defocus_blur: float = setting(0.05, "float", "probability of defocus blur", "P", 0.0, 1.0)
-    vignetting: Param = setting("0-0.3", "param", "brightness fall-off at the image corners "
-                                "(fraction)", "V", 0.0, 1.0)
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -194,6 +182,9 @@ class GeneratorConfig:
     def _check_camera(self) -> None:
         """Output formats and the camera: presets, custom FOV and sensor."""
         self._put("format", _label_formats(self.format))
+        if self.yolo_seg and "yolo" not in self.format:
+            raise SettingError("yolo_seg", "{name} writes YOLO polygon labels: add --format "
+                                           "yolo (or coco,yolo), or drop {name}")
         if self.image_format not in IMAGE_FORMATS:
             raise SettingError("image_format", f"{{name}} {self.image_format!r} is unknown; "
                                                f"use {' or '.join(IMAGE_FORMATS)}")
@@ -216,12 +207,24 @@ class GeneratorConfig:
                                              f"values): give both as lists, or drop {{name}}")
 
     def _check_water(self) -> None:
-        """Water colours and the user's photo folder."""
+        """Waters, skies, the camera look and the user's photo folder."""
         water = names(self.water, "water")
         if not water:
-            raise SettingError("water", "{name} needs at least one colour: "
-                                        f"{', '.join(WATER_COLORS)} or R,G,B")
+            raise SettingError("water", "{name} needs at least one water: "
+                                        f"{', '.join(WATER_NAMES)} or R,G,B")
         self._put("water", tuple(_water_text(w) for w in water))
+        sky = names(self.sky, "sky")
+        bad = [k for k in sky if k not in SKY_KINDS]
+        if bad or not sky:
+            raise SettingError("sky", f"{{name}} {(bad or [''])[0]!r} is unknown; use some of "
+                                      f"{', '.join(SKY_KINDS)}")
+        self._put("sky", tuple(sky))
+        if self.look not in (*LOOK_PRESETS, "auto"):
+            raise SettingError("look", f"{{name}} {self.look!r} is unknown; use one of "
+                                       f"{', '.join(LOOK_PRESETS)} or auto")
+        if self.recording not in RECORDINGS:
+            raise SettingError("recording", f"{{name}} {self.recording!r} is unknown; use "
+                                            f"{' or '.join(RECORDINGS)}")
         if self.backgrounds is not None:
             if not isinstance(self.backgrounds, (str, Path)) or "\0" in str(self.backgrounds):
                 raise SettingError("backgrounds", f"{{name}} {self.backgrounds!r} must be a "
@@ -232,7 +235,7 @@ class GeneratorConfig:
         """Objects of interest (each its own category) and the clutter kinds."""
         objs = self.objects
         objs = (objs,) if isinstance(objs, (ObjectSpec, dict)) else names(objs, "object")
-        specs = [_object_spec(o) for o in objs]
+        specs = [object_spec(o) for o in objs]
         if not specs:
             raise SettingError("object", "{name}: give at least one object of interest")
         cats = [s.category for s in specs]
@@ -252,6 +255,14 @@ class GeneratorConfig:
             return CameraModel(sw, sh, self.fov if self.fov is not None else base[2],
                                self.width, self.height)
         return CameraModel.preset(self.camera, self.width, self.height)
+
+    @property
+    def look_preset(self) -> str:
+        """The camera look's preset: ``look``, or for ``auto`` the camera's (mavic2pro for a
+        custom camera)."""
+        if self.look != "auto":
+            return self.look
+        return self.camera if self.camera in LOOK_PRESETS else "mavic2pro"
 
     @property
     def categories(self) -> list[dict]:
@@ -300,6 +311,10 @@ class GeneratorConfig:
         clean = {}
         for key, value in mapping.items():
             name = str(key).replace("-", "_")
+            if name in RETIRED:
+                get_logger(__name__).warning("%s: %r is no longer used: %s", source, key,
+                                             RETIRED[name])
+                continue
             if name not in known:
                 near = difflib.get_close_matches(name, sorted(known), n=1, cutoff=0.6)
                 hint = f"did you mean {near[0]!r}? " if near else ""
@@ -307,21 +322,6 @@ class GeneratorConfig:
                                 f"`python -m sdcomp.generate --help` for the names")
             clean[name] = value
         return replace(base or cls(), **clean)
-
-
-def _object_spec(o: Any) -> ObjectSpec:
-    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category} table."""
-    if isinstance(o, str):
-        return ObjectSpec(o)
-    if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category", "weight"}
-        if unknown:
-            raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh, category and weight")
-        return ObjectSpec(**o)
-    if not isinstance(o, ObjectSpec):
-        raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
-    return o
 
 
 def _label_formats(v: Any) -> tuple[str, ...]:
@@ -345,26 +345,11 @@ def _water_text(w: Any) -> str:
         try:
             w = ",".join(str(int(c)) for c in w)
         except (TypeError, ValueError, OverflowError):
-            raise SettingError("water", f"{{name}} {w!r} is not a colour: use a name "
-                                        f"({', '.join(WATER_COLORS)}) or R,G,B of 0-255"
+            raise SettingError("water", f"{{name}} {w!r} is not a water: use a name "
+                                        f"({', '.join(WATER_NAMES)}) or R,G,B of 0-255"
                                ) from None
     parse_water(str(w))  # raises UserError for an unknown name or bad RGB
     return str(w)
-
-
-def load_toml(path: str | Path) -> dict:
-    """The table of a TOML config file (keys = field names), or UserError."""
-    p = Path(path)
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise UserError(f"--config {p}: no such file") from None
-    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise UserError(f"--config {p}: not a readable TOML file ({e})") from None
-    if "generate" in data and isinstance(data["generate"], dict):
-        data = data["generate"]
-    return data
 
 
 __all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml"]

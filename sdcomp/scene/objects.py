@@ -1,5 +1,6 @@
-"""What floats in a scene, by name: objects of interest and clutter kinds, the asset keys
-(sprite names) each is drawn from, and the rules that keep the two apart.
+"""What floats in a scene, by name: objects of interest (:class:`ObjectSpec`) and clutter
+kinds, the asset keys (sprite names) each is drawn from, and the rules that keep the two
+apart.
 
 An object names a built-in mesh, a search-and-rescue kind (all its variants: ``swimmer`` is
 ``swimmer-00`` ... ``swimmer-11``), a single variant, or a mesh file; its asset keys are
@@ -12,8 +13,13 @@ one is refused (:func:`resolve_clutter_kinds`).
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
 from ..assets import library, sar
-from ..errors import SettingError
+from ..errors import SettingError, UserError
 
 CLUTTER_PREFIX = "clutter:"  # asset keys of clutter: "clutter:log", "clutter:boat-03"
 #: clutter kinds drawn when none are given
@@ -24,6 +30,58 @@ CLUTTER_KINDS = (*DEFAULT_CLUTTER_KINDS,
 #: COCO supercategories of the search-and-rescue kinds (SeaDronesSee's)
 SUPERCATEGORIES = {"swimmer": "person", "boat": "boat", "jetski": "boat",
                    "life_saving_appliances": "object", "buoy": "object"}
+
+
+def _positive(v: Any) -> bool:
+    """Whether ``v`` (a number or its text) is a finite number above 0."""
+    try:
+        return 0.0 < float(v) < math.inf
+    except ValueError:
+        return False
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """An object of interest: a built-in mesh or kind name (a kind stands for all its
+    variants) or a mesh file, its COCO category, and its
+    ``weight``: how often it is drawn relative to the other objects (class proportions)."""
+
+    mesh: str = "bluerov2"
+    category: str = ""
+    weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
+            raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
+                                         "bluerov2-heavy, swimmer, boat, jetski, "
+                                         "life_saving_appliances, buoy) or a mesh file path")
+        w = self.weight
+        if isinstance(w, bool) or not isinstance(w, (int, float, str)) or not _positive(w):
+            raise SettingError("weight", f"{{name}} {w!r} must be a positive number (how "
+                                         f"often this object is drawn relative to the others)")
+        object.__setattr__(self, "weight", float(w))
+        if not self.category:
+            object.__setattr__(self, "category", Path(self.mesh).stem if Path(
+                self.mesh).suffix else self.mesh)
+        if not isinstance(self.category, str) or not self.category.strip():
+            raise SettingError("category", f"{{name}} {self.category!r} must be a non-empty "
+                                           f"name")
+
+
+def object_spec(o: Any) -> ObjectSpec:
+    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight} table
+    (UserError for another key, SettingError for a bad value)."""
+    if isinstance(o, str):
+        return ObjectSpec(o)
+    if isinstance(o, dict):
+        unknown = set(o) - {"mesh", "category", "weight"}
+        if unknown:
+            raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
+                            f"use mesh, category and weight")
+        return ObjectSpec(**o)
+    if not isinstance(o, ObjectSpec):
+        raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
+    return o
 
 
 def object_kind(mesh: str) -> str | None:

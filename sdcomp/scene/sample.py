@@ -9,14 +9,17 @@ every dataset.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
+from .look import CameraLook
+from .look_table import sample_look
 from .objects import clutter_assets, low_enough, object_assets
-from .scene import Effects, FeatureSeeds, Placement, Role, Scene, Shore, on_land
-from .water import attenuation, parse_water
+from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
+from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
 EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
@@ -45,19 +48,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
     pose = CameraPose(*_altitude_pitch(rng, config), config.heading.sample(rng) % 360.0)
-    water = config.water[min(int(rng.random() * len(config.water)), len(config.water) - 1)]
-    name, rgb = parse_water(water)
-    jitter = rng.uniform(0.92, 1.08, 3)
-    r, g, b = (min(max(round(c * j), 0), 255) for c, j in zip(rgb, jitter.tolist(),
-                                                               strict=True))
-    turbidity = config.turbidity.sample(rng)
-    wind = config.wind.sample(rng)
-    swell = rng.uniform(0, 360)
-    floor_depth = config.floor_depth.sample(rng)
-    sun_el = config.sun_elevation.sample(rng)
-    sun_az = config.sun_azimuth.sample(rng) % 360.0
-    ambient = config.ambient.sample(rng)
-
+    water = sample_water(rng, config)
     shore = None
     if rng.random() < config.shore:
         footprint = pose.altitude * model.width / model.fx
@@ -65,11 +56,77 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
                       int(rng.integers(2**31)))
     hills = int(rng.integers(2**31)) if rng.random() < config.hills else None
     placements = _placements(rng, config, model, pose, shore)
-    effects = _effects(rng, config, model)
+    look = sample_look(config.look_preset, rng, model.width, model.height,
+                       recording=config.recording, fx=model.fx, fy=model.fy,
+                       motion=config.motion_blur)
+    water, look = expose(water, look)
+    scale = max(model.width, model.height) / 416.0
+    defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
+    quality = int(config.jpeg_quality.sample(rng))
     seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
-    return Scene(index, model, pose, name, (r, g, b), turbidity, attenuation(turbidity), wind,
-                 swell, floor_depth, sun_el, sun_az, ambient, placements, shore, hills,
-                 effects, seeds, config.shadows, config.whitecaps)
+    return Scene(index, model, pose, water, placements, shore, hills, look, defocus, quality,
+                 seeds, config.shadows, config.glitter)
+
+
+def expose(water: WaterParams, look: CameraLook) -> tuple[WaterParams, CameraLook]:
+    """One exposure per image, made where the light is: the camera's auto exposure (its
+    target luminance and bias) becomes the renderer's exposure target, and the camera
+    stage applies no gain of its own (``ae_strength`` and ``exposure_ev`` 0). Sun sparkles
+    then clip against the exposure the image really has, as on a sensor, instead of being
+    clipped at the renderer's and scaled after. A clean look keeps the water's own target."""
+    if look.preset == "clean":
+        return water, look
+    target = min(max(look.ae_target * 2.0 ** look.exposure_ev, 0.02), 0.6)
+    return (replace(water, exposure_target=target),
+            replace(look, ae_strength=0.0, exposure_ev=0.0))
+
+
+def _pick(rng: np.random.Generator, kinds: tuple[str, ...], weights: dict[str, float]) -> str:
+    """One of ``kinds``, drawn with ``weights`` (renormalised over them)."""
+    w = np.array([weights[k] for k in kinds], np.float64)
+    return kinds[min(int(np.searchsorted(np.cumsum(w / w.sum()), rng.random(), "right")),
+                     len(kinds) - 1)]
+
+
+def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterParams:
+    """The water and sky of one image (see :class:`WaterParams`): the water named by
+    ``config.water`` (a preset draws one of its types), its constituents placed by the
+    turbidity in the type's ranges (log scale, each +-0.15 at random), patchiness, a shallow
+    bottom with probability ``config.shallow``, waves (slicks on calm water, swell on the
+    sea), the sky, the sun and the exposure target. Every value is drawn whether it is used
+    or not, so the draws after it do not shift."""
+    name, types, rgb = parse_water(config.water[int(rng.integers(len(config.water)))])
+    wtype = types[int(rng.integers(len(types)))]
+    turbidity = config.turbidity.sample(rng)
+    # each constituent at its own place within +-0.15 of the turbidity
+    chl, cdom, tsm = (constituents(wtype, turbidity + rng.uniform(-0.15, 0.15))[k]
+                      for k in range(3))
+    patchiness, patch_scale = float(rng.uniform(0.05, 0.45)), _log_uniform(rng, 25.0, 400.0)
+    depth = config.floor_depth.sample(rng)
+    shallow = rng.random() < config.shallow
+    wind, wind_dir, wave_age = config.wind.sample(rng), rng.uniform(0, 360), _log_uniform(
+        rng, 0.84, 4.0)
+    slicks = float(rng.uniform(0.05, 0.5)) if rng.random() < 0.4 and wind < 6.0 else 0.0
+    swell = float(rng.uniform(0.3, 2.0)) if rng.random() < 0.6 else 0.0
+    swell_length, swell_dir = _log_uniform(rng, 40.0, 200.0), rng.uniform(0, 360)
+    sky = _pick(rng, config.sky, SKY_WEIGHTS)
+    cover = {"clear": 0.0, "overcast": 1.0}.get(sky, config.cloud_cover.sample(rng))
+    return WaterParams(
+        name=name, water_type=wtype, chl=chl, cdom=cdom, tsm=tsm, rgb=rgb,
+        turbidity=turbidity, patchiness=patchiness, patch_scale=patch_scale,
+        depth=depth if shallow else None, wind=wind, wind_dir=wind_dir, wave_age=wave_age,
+        slicks=slicks, swell_height=swell if wtype in ("ocean", "coastal") else 0.0,
+        swell_length=swell_length, swell_dir=swell_dir, foam_scale=config.whitecaps,
+        sky=sky, cloud_cover=cover, cloud_height=rng.uniform(800.0, 2500.0),
+        cloud_scale=_log_uniform(rng, 6.0, 25.0), cloud_bright=rng.uniform(0.7, 1.1),
+        visibility=_log_uniform(rng, 6000.0, 40000.0),
+        sun_elevation=config.sun_elevation.sample(rng),
+        sun_azimuth=config.sun_azimuth.sample(rng) % 360.0,
+        exposure_target=rng.uniform(0.16, 0.21), seed=int(rng.integers(2**31)))
 
 
 def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig) -> tuple[float, float]:
@@ -127,21 +184,6 @@ def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
     lo, hi, jitter = VARIANT_TINT
     gains = rng.uniform(lo, hi) * (1.0 + rng.uniform(-jitter, jitter, 3))
     return k, asset, (float(gains[0]), float(gains[1]), float(gains[2]))
-
-
-def _effects(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
-             ) -> Effects:
-    """The camera effects of one image."""
-    exposure = config.exposure.sample(rng)
-    wb_amp = config.white_balance.sample(rng)
-    wb = (1.0 + rng.uniform(-wb_amp, wb_amp), 1.0, 1.0 + rng.uniform(-wb_amp, wb_amp))
-    noise = config.noise.sample(rng)
-    scale = max(model.width, model.height) / 416.0
-    motion = ((rng.uniform(2, 6) * scale, rng.uniform(0, 180))
-              if rng.random() < config.motion_blur else None)
-    defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
-    return Effects(exposure, wb, noise, motion, defocus, config.vignetting.sample(rng),
-                   int(config.jpeg_quality.sample(rng)))
 
 
 def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,

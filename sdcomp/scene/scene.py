@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera import CameraModel, CameraPose, centre_gsd
+from .look import CameraLook
+from .water import WaterParams
 
 
 class Role(enum.Enum):
@@ -25,6 +27,7 @@ class Role(enum.Enum):
 
     OBJECT = "object"  # an object of interest: annotated
     CLUTTER = "clutter"  # a distractor: never annotated
+    WATER = "water"  # what an object does to the water (foam): drawn, never annotated
 
 
 @dataclass(frozen=True)
@@ -66,30 +69,13 @@ class Shore:
 
 
 @dataclass(frozen=True)
-class Effects:
-    """Camera effects: exposure (stops), white-balance gains (R, G, B), noise standard
-    deviation (8-bit levels), motion blur (length px, angle deg) or None, defocus blur sigma
-    (px) or None, vignetting (fractional fall-off at the corners), JPEG quality."""
-
-    exposure: float
-    white_balance: tuple[float, float, float]
-    noise: float
-    motion_blur: tuple[float, float] | None
-    defocus_blur: float | None
-    vignetting: float
-    jpeg_quality: int
-
-
-@dataclass(frozen=True)
 class FeatureSeeds:
     """Seed sequences of the renderer's random choices, one per feature (each a
-    ``numpy.random.default_rng`` seed): ``waves`` the wave texture's offset (then the
-    sensor noise's window, drawn from the same stream after it), ``floor`` and ``land``
-    their textures' offsets, ``photo`` the choice and crop of a user's photo, ``noise_tile``
-    the sensor-noise tile of the run (shared by its images)."""
+    ``numpy.random.default_rng`` seed): ``land`` the land texture's offset, ``photo`` the
+    choice and crop of a user's photo, ``noise_tile`` the sensor-noise tile of the run
+    (shared by its images; each image reads a window of it at its look's offsets). The
+    water's own offsets come from :attr:`WaterParams.seed`."""
 
-    waves: tuple[int, ...]
-    floor: tuple[int, ...]
     land: tuple[int, ...]
     photo: tuple[int, ...]
     noise_tile: tuple[int, ...]
@@ -99,33 +85,29 @@ class FeatureSeeds:
         """The seeds of an image whose texture seed is ``texture_seed`` in a run of
         ``run_seed``."""
         t = int(texture_seed)
-        return cls((t, 1), (t, 2), (t, 3), (t, 4), (int(run_seed), 31337))
+        return cls((t, 3), (t, 4), (int(run_seed), 31337))
 
 
 @dataclass(frozen=True)
 class Scene:
-    """Everything that varies per image (see the module docstring for frames and units)."""
+    """Everything that varies per image (see the module docstring for frames and units):
+    the camera and its pose, the water and sky (:class:`WaterParams`: its sun, wind, waves,
+    clouds), the floating objects, land, the camera's look (:class:`CameraLook`), a defocus
+    blur (Gaussian sigma, pixels) or None, the file's JPEG quality and the feature seeds."""
 
     index: int
     model: CameraModel
     camera: CameraPose
-    water_name: str
-    water_rgb: tuple[int, int, int]
-    turbidity: float
-    attenuation: float  # 1/m
-    wind: float  # m/s
-    swell_direction: float  # degrees
-    floor_depth: float  # m
-    sun_elevation: float
-    sun_azimuth: float
-    ambient: float
+    water: WaterParams
     placements: tuple[Placement, ...]
     shore: Shore | None
     hills: int | None  # seed of the ridge line when hills are drawn, else None
-    effects: Effects
+    look: CameraLook
+    defocus_blur: float | None
+    jpeg_quality: int
     seeds: FeatureSeeds
     shadows: bool = True  # object shadows on the water and floor
-    whitecaps: float = 1.0  # whitecap amount at a given wind
+    glitter: bool = True  # the sun's glitter drawn as sparkles
 
     @property
     def gsd(self) -> float:

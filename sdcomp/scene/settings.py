@@ -13,10 +13,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from ..errors import SettingError
+from ..errors import SettingError, UserError
 from .params import Param, parse_param
 
 #: kinds of :class:`Setting` whose check is :meth:`Setting.check`; "custom" fields are
@@ -140,3 +142,18 @@ def toml_value(v: Any) -> str:
         return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_value(x)}"
                                for k, x in v.items()) + "}"
     raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def load_toml(path: str | Path) -> dict:
+    """The table of a TOML config file (keys = field names), or UserError."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise UserError(f"--config {p}: no such file") from None
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise UserError(f"--config {p}: not a readable TOML file ({e})") from None
+    if "generate" in data and isinstance(data["generate"], dict):
+        data = data["generate"]
+    return data

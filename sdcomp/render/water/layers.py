@@ -1,0 +1,211 @@
+"""The per-pixel wave layers: level tiles seen through the camera (straight down: tile crops, one
+texel per pixel; oblique: one remap per run of rows of one level, cross-faded at level
+changes)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .base import LAYERS, scratch, tick
+from .geometry import row_geometry
+from .textures import N_LEVELS, N_TILE, WaterTextures, pitch
+from .waves import level_continuous
+
+
+def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -> dict:
+    """The per-pixel wave layers of the sea rows (see LAYERS): ``a4`` (H - sea_row0, W, 4)
+    uint8 codes (upwind slope, crosswind slope, grain, foam) of level ``l`` at full
+    resolution, ``b4`` of level ``l + 2`` at 1/4 and ``c4`` of level ``l + 4`` at 1/16 of
+    the resolution (their samples at the centres of 4 x 4 and 16 x 16 blocks), with the
+    level of their rows
+    (``levels_a`` ...). Straight down: crops of the tiles, one texel per sample. Oblique:
+    the tiles sampled through the camera, rows along tile rows; rows near a level change
+    cross-fade the two levels."""
+    w, h = plan.width, plan.height
+    r0 = plan.sea_row0
+    hs = h - r0
+    s = frame["set"]
+    out = {}
+    for name, div, off in LAYERS:
+        wl, hl = max(1, -(-w // div)), max(1, -(-hs // div))
+        dst = scratch("tex" + name, (hl, wl, 4))
+        if plan.nadir:
+            lev = int(round(frame["flev"][0])) + off
+            if lev >= N_LEVELS:
+                dst[:] = _neutral(wl)
+            else:
+                p = pitch(lev)
+                ox = int(world_off[0] / p) % N_TILE
+                oy = int(world_off[1] / p) % N_TILE
+                dst = _periodic_crop(textures.ensure(s, lev), ox, oy, wl, hl, dst)
+            levels = np.full(hl, lev, np.int64)
+        else:
+            # rows and columns at the centres of div x div blocks
+            v = r0 + (np.arange(hl) + 0.5) * (hs / hl)
+            geo = row_geometry((v - h / 2) / plan.fy, plan.fx, plan.fy, plan.pitch, alt)
+            fp = np.maximum(geo["across"], geo["along"])
+            fl = np.where(geo["ok"], level_continuous(np.where(geo["ok"], fp, 1.0)), N_LEVELS)
+            x = ((np.arange(wl) + 0.5) * (w / wl) - w / 2) / plan.fx
+            levels = _remap_layer(dst, textures, s, fl + off, geo["t"], geo["fwd"], x,
+                                  world_off, name, fade=div < 16)
+        out[name + "4"] = dst
+        out["levels_" + name] = levels
+    return out
+
+
+FADE = 0.08  # level units on each side of a level change over which the levels cross-fade
+
+
+def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
+                 fade: bool = True) -> np.ndarray:
+    """Fill ``dst`` (rows, cols, 4) with level tiles of set ``s`` sampled through the
+    camera: row ``i`` of level ``ceil(flev[i])`` at tile x ``t_i x_j / p + N/2`` (across
+    the view, tile columns hold x + N/2) and tile y ``t_i fwd_i / p + oy`` (forward); rows
+    within FADE of a level change blend in the neighbouring level. The sampling maps of all
+    rows are made at once; one remap per run of rows of one level. Returns the level of
+    each row (N_LEVELS: none)."""
+    tick()
+    levels = np.clip(np.ceil(flev - 1e-9), 0, N_LEVELS).astype(np.int64)
+    xs = np.asarray(x, np.float32)
+    rows, cols = dst.shape[:2]
+    frac = flev - (levels - 1)  # in (0, 1]: position within the level's range
+    mx = scratch("mapx" + name, (rows, cols), np.float32)
+    my = scratch("mapy" + name, (rows, cols), np.float32)
+    _maps(levels, t, fwd, xs, world_off, mx, my)
+    tick("r.maps")
+    for lev, a, b in level_runs(levels):
+        if lev >= N_LEVELS:
+            dst[a:b] = _neutral(cols)
+            continue
+        cv2.remap(textures.ensure(s, lev), mx[a:b], my[a:b], cv2.INTER_LINEAR, dst=dst[a:b],
+                  borderMode=cv2.BORDER_WRAP)
+    tick("r.main")
+    # cross-fade zones: towards the coarser level near its boundary, the finer one near
+    # the other, half-way at the boundary
+    w_up = np.clip((frac - (1 - FADE)) / (2 * FADE), 0, 0.5)
+    w_dn = np.clip((FADE - frac) / (2 * FADE), 0, 0.5)
+    for step, wts in ((1, w_up), (-1, w_dn)) if fade else ():
+        sel = (wts > 0.02) & (levels < N_LEVELS) & (levels + step >= 0)
+        if not sel.any():
+            continue
+        other = np.minimum(levels + step, N_LEVELS)
+        idx = np.flatnonzero(sel)
+        ox = scratch("omapx" + name, (len(idx), cols), np.float32)
+        oy = scratch("omapy" + name, (len(idx), cols), np.float32)
+        _maps(other[idx], t[idx], fwd[idx], xs, world_off, ox, oy)
+        wo_all = scratch("bw" + name, (len(idx), cols), np.float32)
+        wo_all[:] = wts[idx, None]
+        wi_all = scratch("bwi" + name, (len(idx), cols), np.float32)
+        np.subtract(np.float32(1.0), wo_all, out=wi_all)
+        cut = np.flatnonzero((np.diff(idx) != 1) | (np.diff(other[idx]) != 0)) + 1
+        start = 0
+        for stop in [int(c) for c in cut] + [len(idx)]:
+            a, b = int(idx[start]), int(idx[stop - 1]) + 1
+            lev = int(other[a])
+            block = dst[a:b]
+            tmp = scratch("blend" + name, block.shape)
+            if lev >= N_LEVELS:
+                tmp[:] = _neutral(cols)
+            else:
+                cv2.remap(textures.ensure(s, lev), ox[start:stop], oy[start:stop],
+                          cv2.INTER_LINEAR, dst=tmp, borderMode=cv2.BORDER_WRAP)
+            cv2.blendLinear(block, tmp, wi_all[start:stop], wo_all[start:stop], dst=block)
+            start = stop
+    tick("r.blend")
+    return levels
+
+
+def _maps(levels, t, fwd, xs, world_off, mx, my) -> None:
+    """Remap coordinates of rows at ``levels`` (see :func:`_remap_layer`) into ``mx``,
+    ``my`` (rows, cols) float32; rows wider than twice the tile are wrapped explicitly
+    (slightly wider ones wrap through BORDER_WRAP)."""
+    ok = levels < N_LEVELS
+    p = pitch(0) * np.exp2(np.where(ok, levels, 0).astype(np.float64))
+    tt = np.where(ok & np.isfinite(t), t, 0.0)
+    a = (tt / p).astype(np.float32)
+    ty = np.mod(tt * fwd / p + world_off[1] / p, N_TILE).astype(np.float32)
+    np.multiply(a[:, None], xs[None, :], out=mx)
+    mx += np.float32(N_TILE // 2)
+    if float(np.max(a)) * float(xs[-1] - xs[0]) > 2 * N_TILE:
+        wide = np.flatnonzero(a * float(xs[-1] - xs[0]) > 2 * N_TILE)
+        blk = mx[wide]
+        blk -= np.floor(blk * np.float32(1.0 / N_TILE)) * np.float32(N_TILE)
+        mx[wide] = blk
+    my[:] = ty[:, None]
+
+
+_NEUTRAL: dict = {}
+
+
+def _neutral(width: int) -> np.ndarray:
+    """(1, width, 4) uint8 codes of a flat surface without grain or foam (channels: slope
+    u, slope c, grain, foam)."""
+    row = _NEUTRAL.get(width)
+    if row is None:
+        row = _NEUTRAL[width] = np.tile(np.array([128, 128, 128, 0], np.uint8), (1, width, 1))
+    return row
+
+
+def _periodic_crop(tile: np.ndarray, x0: int, y0: int, cw: int, ch: int,
+                   out: np.ndarray) -> np.ndarray:
+    """A (ch, cw) window of the periodic tile (period N_TILE; the tile has one extra
+    wrapped row and column) starting near texel (x0, y0): a view when it fits (moved left
+    or up if needed: any start is as good), else assembled in ``out`` from wrapped
+    blocks."""
+    n = N_TILE
+    if cw <= n + 1 and ch <= n + 1:
+        x0 = min(x0, n + 1 - cw)
+        y0 = min(y0, n + 1 - ch)
+        return tile[y0:y0 + ch, x0:x0 + cw]
+    return _wrap_window(tile[:n, :n], y0, x0, ch, cw, out)
+
+
+def _wrap_window(tile, y0, x0, h, w, out):
+    """An (h, w) window of a periodic (n, n, ...) tile from (y0, x0), wrapping."""
+    n = tile.shape[0]
+    y = 0
+    while y < h:
+        sy = (y0 + y) % n
+        hh = min(h - y, n - sy)
+        x = 0
+        while x < w:
+            sx = (x0 + x) % n
+            ww = min(w - x, n - sx)
+            out[y:y + hh, x:x + ww] = tile[sy:sy + hh, sx:sx + ww]
+            x += ww
+        y += hh
+    return out
+
+
+def level_runs(levels: np.ndarray):
+    """(level, start, stop) of each run of equal values."""
+    lv = np.asarray(levels)
+    if lv.size == 0:
+        return []
+    if lv[0] == lv[-1] and (lv.size < 3 or lv.min() == lv.max()):
+        return [(int(lv[0]), 0, int(lv.size))]
+    cut = np.flatnonzero(np.diff(lv)) + 1
+    starts = np.concatenate([[0], cut])
+    stops = np.concatenate([cut, [lv.size]])
+    return [(int(lv[a]), int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+
+
+def resize_box(grid: np.ndarray, rows: int, width: int, x0: int, y0: int, x1: int,
+                y1: int) -> np.ndarray:
+    """The box (x0..x1, y0..y1) of ``cv2.resize(grid, (width, rows))`` (cell-centred
+    bilinear magnification), computed from the grid cells around the box only when the
+    cells are a whole number of pixels (else from the full magnification)."""
+    gh, gw = grid.shape[:2]
+    cw, ch = width / gw, rows / gh
+    if cw == int(cw) and ch == int(ch) and cw >= 1 and ch >= 1:
+        cw, ch = int(cw), int(ch)
+        j0, j1 = max(0, x0 // cw - 1), min(gw, -(-x1 // cw) + 1)
+        i0, i1 = max(0, y0 // ch - 1), min(gh, -(-y1 // ch) + 1)
+        sub = cv2.resize(np.ascontiguousarray(grid[i0:i1, j0:j1]),
+                         ((j1 - j0) * cw, (i1 - i0) * ch), interpolation=cv2.INTER_LINEAR)
+        # the block's edge cells clamp differently from the full grid: they lie outside
+        # the box unless the box touches the grid's edge (where both clamp alike)
+        return sub[y0 - i0 * ch:y1 - i0 * ch, x0 - j0 * cw:x1 - j0 * cw]
+    full = cv2.resize(grid, (width, rows), interpolation=cv2.INTER_LINEAR)
+    return full[y0:y1, x0:x1]

@@ -1,0 +1,318 @@
+"""Floating objects in the water: their light, the waterline, what the water does to the parts
+below it, the contact foam, and the annotation rules that go with them (truncation at the
+frame's edge, labels moved by the camera's lens).
+
+The physics pieces are checked against their formulas (Lambert, Fresnel, Beer-Lambert through
+the water column of Lee et al. 1999); the rest on rendered frames.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sdcomp.annotate import AnnotationRule
+from sdcomp.pipeline import Generator
+from sdcomp.render.foam import contact_foam, ring_strength
+from sdcomp.render.lighting import lambert
+from sdcomp.render.submerge import LUMA, WaterColumn, submerge, water_columns, waterline_level
+from sdcomp.render.water.optics import N_WATER, fresnel, refracted_cos
+from sdcomp.scene.camera import CameraPose
+from sdcomp.scene.config import GeneratorConfig
+from sdcomp.scene.look_table import clean_look
+from sdcomp.scene.sample import object_asset
+from sdcomp.scene.scene import Placement, Role
+from sdcomp.scene.water import WaterParams, constituents
+from sdcomp.util.colour import srgb_to_linear
+
+# --------------------------------------------------------------------------- light
+
+
+def test_lambert_matches_the_hemisphere_formula():
+    """A surface facing up sees the sun at cos(zenith) and the whole sky; facing down, the
+    sea's upwelling light only; tilted 90 degrees, half of each; never the sun from behind."""
+    albedo = np.full((1, 4, 3), 0.5, np.float32)
+    normal = np.array([[[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0]]], np.float32)
+    sun_dir = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
+    sun, sky, up = (np.array(v, np.float32) for v in ((2.0, 2.0, 2.0), (0.4, 0.5, 0.6),
+                                                      (0.05, 0.06, 0.07)))
+    out = lambert(albedo, normal, sun_dir, np.array([0.0, 0.0, 1.0]), sun, sky, up)
+    k = 0.5 / math.pi
+    np.testing.assert_allclose(out[0, 0], k * (sun * math.cos(0.5) + sky), rtol=1e-5)
+    np.testing.assert_allclose(out[0, 1], k * up, rtol=1e-5)
+    np.testing.assert_allclose(out[0, 2], k * (sun * math.sin(0.5) + (sky + up) / 2),
+                               rtol=1e-5)
+    np.testing.assert_allclose(out[0, 3], k * (sky + up) / 2, rtol=1e-5)
+
+
+# --------------------------------------------------------------------------- the water column
+
+def _light(gen: Generator, water: WaterParams):
+    from sdcomp.render.water.surface import view_water
+
+    return view_water(gen.model, CameraPose(20.0, 90.0, 0.0), water,
+                      gen.compositor.assets.textures.water).light
+
+
+@pytest.fixture(scope="module")
+def gen(sprites_dir) -> Generator:
+    return Generator(GeneratorConfig(seed=2, clutter=0, count=1), sprites_dir)
+
+
+def _water(kind: str, t: float, **kw) -> WaterParams:
+    chl, cdom, tsm = constituents(kind, t)
+    return WaterParams(name=kind, water_type=kind, chl=chl, cdom=cdom, tsm=tsm, turbidity=t,
+                       patchiness=0.0, sky="clear", sun_elevation=60.0, seed=3, **kw)
+
+
+def test_water_columns_follow_lee_and_fresnel(gen):
+    """Straight down: R = ((n - 1) / (n + 1))**2, the surface passes (1 - R) / n**2 of the
+    radiance upwards, k_obj = K_d + 1.04 (1 + 5.4 u)**0.5 (a + b_b), k_col = K_d + 1.03
+    (1 + 2.4 u)**0.5 (a + b_b); at 60 degrees from the vertical the paths lengthen by
+    1 / cos(theta_w) and the reflectance is Fresnel's."""
+    light = _light(gen, _water("coastal", 0.5))
+    a, bb = light.absorption.astype(np.float64), light.backscatter.astype(np.float64)
+    kd = light.diffuse_attenuation.astype(np.float64)
+    u = bb / (a + bb)
+    slant = np.array([math.sin(math.radians(60)), 0.0, math.cos(math.radians(60))])
+    down, oblique = water_columns(light, np.array([[0, 0, 1.0], slant]),
+                                  np.full((2, 3), 0.01), np.ones((2, 3)), 0.0)
+    r0 = ((N_WATER - 1) / (N_WATER + 1)) ** 2
+    assert down.transmission == pytest.approx((1 - r0) / N_WATER ** 2, rel=1e-3)
+    np.testing.assert_allclose(down.k_obj, kd + 1.04 * np.sqrt(1 + 5.4 * u) * (a + bb),
+                               rtol=1e-5)
+    np.testing.assert_allclose(down.k_col, kd + 1.03 * np.sqrt(1 + 2.4 * u) * (a + bb),
+                               rtol=1e-5)
+    cos_w = float(refracted_cos(0.5))
+    np.testing.assert_allclose(oblique.k_obj - kd, (down.k_obj - kd) / cos_w, rtol=1e-5)
+    r60 = float(fresnel(0.5))
+    assert oblique.transmission == pytest.approx((1 - r60) / N_WATER ** 2, rel=1e-4)
+    assert r60 > 2 * r0  # grazing views reflect more of the sky
+    assert (oblique.reflection > down.reflection).all()
+    # the refracted sun: Snell's law
+    s = light.sun
+    sin_i = math.hypot(s[0], s[1])
+    assert math.hypot(*down.sun_dir[:2]) == pytest.approx(sin_i / N_WATER, rel=1e-6)
+
+
+def _column(k: float) -> WaterColumn:
+    return WaterColumn(np.full(3, k, np.float32), np.full(3, k, np.float32),
+                       np.array([0.02, 0.03, 0.04], np.float32),
+                       np.array([0.01, 0.01, 0.01], np.float32), 0.54,
+                       np.array([0, 0, 1.0]), np.ones(3, np.float32))
+
+
+def test_submerged_light_is_beer_lambert_through_the_column():
+    """A pixel d metres down: T (below) exp(-k d) + deep (1 - exp(-k_col d)) + R L_sky; its
+    mask weight is exp(-k d) (luminance-weighted); above the water it is the surface's own
+    light with its full weight; far down, only the water is seen."""
+    n = 8
+    above = np.full((n, n, 3), 0.3, np.float32)
+    below = np.full((n, n, 3), 0.2, np.float32)
+    alpha = np.ones((n, n), np.float32)
+    depth = np.tile(np.array([-0.5, 0.0, 0.05, 0.1, 0.3, 0.6, 1.0, 8.0], np.float32), (n, 1))
+    col = _column(1.5)
+    out, weight = submerge(above, below, alpha, depth, col, pitch_m=0.01, blur_per_metre=0.0)
+    np.testing.assert_allclose(out[:, 0], 0.3, rtol=1e-6)
+    assert weight[0, 0] == 1.0
+    for j in range(3, 8):
+        d = float(depth[0, j])
+        t = math.exp(-1.5 * d)
+        want = 0.54 * 0.2 * t + np.array([0.02, 0.03, 0.04]) * (1 - t) + 0.01
+        np.testing.assert_allclose(out[0, j], want, rtol=1e-4)
+        assert weight[0, j] == pytest.approx(t * float(LUMA.sum()), rel=1e-4)
+    assert weight[0, 7] < 1e-4  # 8 m down: nothing of the object is left
+    # the waterline is soft over one pixel: at depth 0 the colour is half the dry surface's,
+    # half the wet one's (nothing attenuated yet: the weight is whole)
+    wet = 0.54 * 0.2 + 0.01
+    np.testing.assert_allclose(out[0, 1], 0.5 * 0.3 + 0.5 * wet, rtol=1e-4)
+    assert weight[0, 1] == pytest.approx(1.0)
+
+
+def test_submerged_parts_blur_with_depth():
+    """Deep parts lose their detail (a checkerboard's contrast drops), the parts just under
+    the surface keep it."""
+    n = 64
+    yy, xx = np.mgrid[0:n, 0:n]
+    checker = ((yy // 2 + xx // 2) % 2).astype(np.float32)[..., None] * np.ones(3, np.float32)
+    depth = np.where(xx < n // 2, 0.02, 1.0).astype(np.float32)
+    out, _ = submerge(checker, checker, np.ones((n, n), np.float32), depth, _column(0.1),
+                      pitch_m=0.01, blur_per_metre=0.05)
+    shallow = out[8:56, 4:28, 1].std()
+    deep = out[8:56, 36:60, 1].std()
+    assert deep < 0.3 * shallow
+
+
+def test_waterline_ripples_have_the_asked_height_and_are_repeatable():
+    z = waterline_level((200, 200), 0.01, 0.02, 0.6, (1, 2))
+    assert z.dtype == np.float32 and z.shape == (200, 200)
+    assert 0.01 < float(z.std()) < 0.03
+    assert np.array_equal(z, waterline_level((200, 200), 0.01, 0.02, 0.6, (1, 2)))
+    assert not np.array_equal(z, waterline_level((200, 200), 0.01, 0.02, 0.6, (1, 3)))
+    assert not waterline_level((5, 5), 0.01, 0.0, 0.6, (1, 2)).any()
+
+
+# --------------------------------------------------------------------------- foam
+
+def test_contact_foam_rings_the_waterline():
+    n = 40
+    yy, xx = np.mgrid[0:n, 0:n]
+    r = np.hypot(yy - n / 2 + 0.5, xx - n / 2 + 0.5)
+    alpha = (r < 10).astype(np.float32)
+    depth = np.where(r < 7, -0.3, 0.0).astype(np.float32)  # a dome: dry top, wet rim
+    pad, cover = contact_foam(alpha, depth, 0.01, 0.4, (5,))
+    assert cover.shape == (n + 2 * pad,) * 2 and 0 < cover.max() <= 0.4 + 1e-6
+    rr = np.hypot(*(np.mgrid[0:n + 2 * pad, 0:n + 2 * pad] - (n + 2 * pad) / 2 + 0.5))
+    ring = (rr > 10) & (rr < 10 + 0.12 / 0.01)
+    assert cover[ring].mean() > 5 * cover[rr > 30].mean() + 1e-3  # around the hull
+    # an object standing clear of the water, one wholly under it, or a band under a pixel
+    # wide: no foam
+    assert contact_foam(alpha, np.full((n, n), -0.8, np.float32), 0.01, 0.4, (5,)) is None
+    assert contact_foam(alpha, np.full((n, n), 0.3, np.float32), 0.01, 0.4, (5,)) is None
+    assert contact_foam(alpha, depth, 0.5, 0.4, (5,)) is None
+    assert ring_strength(0.0) < ring_strength(8.0) <= 0.5
+
+
+# --------------------------------------------------------------------------- frames
+
+def test_foam_never_changes_the_masks(gen):
+    """The foam ring lies behind its object: compositing with or without the foam layers
+    gives the same object weights, so the same masks."""
+    from sdcomp.render.composite import composite
+    from sdcomp.render.layers import build_layers
+    from sdcomp.render.lighting import lighting
+
+    s = _scene(gen, [_rov(), _rov(x=0.6, y=0.4, draft=0.15)], _water("coastal", 0.3, wind=7.0))
+    light = _light(gen, s.water)
+    sprites = gen.compositor.assets.sprites
+    with_foam = build_layers(s, lighting(s, light), sprites)
+    assert any(lay.role is Role.WATER for lay in with_foam)
+    without = [lay for lay in build_layers(s, lighting(s, light), sprites)
+               if lay.role is not Role.WATER]
+    canvas = np.zeros((gen.model.height, gen.model.width, 3), np.uint8)
+    composite(canvas.copy(), with_foam, False)
+    composite(canvas.copy(), without, False)
+    a = [lay.weight for lay in with_foam if lay.role is Role.OBJECT]
+    b = [lay.weight for lay in without]
+    assert len(a) == len(b) == 2
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def _scene(g: Generator, placements, water: WaterParams, pitch: float = 90.0):
+    m = g.model
+    pls = tuple(replace(p, asset=object_asset(g.config, p.category_id - 1))
+                for p in placements)
+    return replace(g.scene(0), placements=pls, camera=CameraPose(12.0, pitch, 0.0),
+                   water=water, look=clean_look(m.width, m.height, m.fx, m.fy),
+                   defocus_blur=None, shore=None, hills=None)
+
+
+def _rov(x=0.0, y=0.0, draft=0.0) -> Placement:
+    return Placement(Role.OBJECT, "", 1, x, y, 30.0, 0.0, 0.0, draft)
+
+
+def test_an_object_is_brighter_in_sun_than_under_overcast_relative_to_its_water(gen):
+    """Exposure follows the water, so it is the contrast that changes: under a clear sky the
+    sunlit object stands out from the water more than under an overcast one."""
+    out = {}
+    for sky in ("clear", "overcast"):
+        s = _scene(gen, [_rov()], _water("lake", 0.5, wind=2.0).__class__(
+            **{**_water("lake", 0.5, wind=2.0).__dict__, "sky": sky}))
+        f = gen.render_scene(s)
+        (obj,) = f.objects
+        m = f.instances == obj.instance_id
+        img = f.image.astype(np.float32).mean(axis=2)
+        out[sky] = float(img[m].mean()) / float(img[~m].mean())
+    assert out["clear"] > out["overcast"] > 1.0
+
+
+def test_deeper_objects_fade_into_the_water(gen):
+    """The same object drawn deeper in murky water: fewer mask pixels and closer to the
+    water's colour. (In clearer water a bright object exposed for the dark water around it
+    stays clipped white down to a metre: as in real footage.)"""
+    water = _water("turbid", 0.5, wind=1.0)
+    prev_area, prev_contrast = None, None
+    for draft in (0.0, 0.1, 0.2, 0.35):
+        f = gen.render_scene(_scene(gen, [_rov(draft=draft)], water),
+                             AnnotationRule(1, amodal=True))
+        img = f.image.astype(np.float32)
+        bg = np.median(img.reshape(-1, 3), axis=0)
+        if f.objects:
+            (o,) = f.objects
+            area, contrast = o.area, float(np.abs(img[o.amodal] - bg).mean())
+        else:
+            area, contrast = 0, 0.0
+        if prev_area is None:
+            first_area = area
+        if prev_area is not None:
+            assert area <= prev_area and contrast < prev_contrast
+        prev_area, prev_contrast = area, contrast
+    assert prev_area < 0.5 * first_area
+
+
+def test_objects_cut_to_slivers_at_the_edge_are_not_annotated(sprites_dir):
+    """min_in_frame: an object with a tenth of its silhouette in the frame is dropped at the
+    default 0.25 and kept with 0; a whole object is kept either way."""
+    g = Generator(GeneratorConfig(seed=2, clutter=0, count=1), sprites_dir)
+    g0 = Generator(GeneratorConfig(seed=2, clutter=0, count=1, min_in_frame=0.0),
+                   sprites_dir)
+    water = _water("ocean", 0.2, wind=1.0)
+    full = g.render_scene(_scene(g, [_rov()], water))
+    (whole,) = full.objects
+    half_w = 12.0 * g.model.width / 2 / g.model.fx  # metres from the centre to the edge
+    found = False
+    for off in np.linspace(0.2, 1.0, 17):
+        pl = [_rov(y=-(half_w + off * 0.5))]  # towards the right edge (nadir, heading 0)
+        strict = g.render_scene(_scene(g, pl, water))
+        loose = g0.render_scene(_scene(g0, pl, water))
+        if loose.objects and loose.objects[0].area < 0.2 * whole.area:
+            assert strict.objects == [] and strict.dropped == 1
+            x, _, w, _ = loose.objects[0].bbox
+            assert x + w == g.model.width  # cut by the right edge
+            found = True
+    assert found
+
+
+def test_labels_follow_the_lens(sprites_dir):
+    """With the camera's look (lens distortion and its zoom), masks and boxes are those of
+    the recorded image: the boxes still derive from the masks, and an object off the centre
+    moves outwards with the zoom, relative to the pinhole's."""
+    cfg = GeneratorConfig(seed=4, clutter=0, count=1)
+    g = Generator(cfg, sprites_dir)
+    water = _water("lake", 0.3, wind=2.0)
+    base = _scene(g, [_rov(x=-2.0, y=2.5)], water)
+    pin = g.render_scene(base)
+    m = g.model
+    from sdcomp.scene.look_table import sample_look
+
+    look = replace(sample_look("mavic2pro", np.random.default_rng(0), m.width, m.height,
+                               fx=m.fx, fy=m.fy), k1=-0.03, k2=0.0, motion_px=0.0)
+    lens = g.render_scene(replace(base, look=look))
+    assert "lens" in lens.camera["stages"] and lens.camera["zoom"] > 1.0
+    (a,), (b,) = pin.objects, lens.objects
+    ys, xs = np.nonzero(lens.instances == b.instance_id)
+    assert b.bbox == (xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1)
+    cx, cy = (m.width - 1) / 2, (m.height - 1) / 2
+    ca = np.hypot(a.bbox[0] + a.bbox[2] / 2 - cx, a.bbox[1] + a.bbox[3] / 2 - cy)
+    cb = np.hypot(b.bbox[0] + b.bbox[2] / 2 - cx, b.bbox[1] + b.bbox[3] / 2 - cy)
+    assert cb > ca
+
+
+def test_glitter_switch_keeps_the_mean_glint(sprites_dir):
+    """glitter off: the sun's reflection is drawn as its smooth mean, so the image keeps its
+    mean linear brightness within 10 % but loses the sparkles' fine detail."""
+    cfg = GeneratorConfig(seed=1, clutter=0, count=0, sun_elevation="70-80", wind="3-5",
+                          look="clean", sky=("clear",))
+    on = Generator(cfg, sprites_dir)
+    off = Generator(replace(cfg, glitter=False), sprites_dir)
+    for i in range(3):
+        a = on.render(i).image.astype(np.float32)
+        b = off.render(i).image.astype(np.float32)
+        la, lb = (float(srgb_to_linear(x / 255.0).mean()) for x in (a, b))
+        assert abs(la - lb) < 0.1 * la
+        da = np.abs(np.diff(a, axis=1)).mean()
+        db = np.abs(np.diff(b, axis=1)).mean()
+        assert db <= da

@@ -1,0 +1,217 @@
+"""Sun glitter (sdcomp.render.water.glitter): the sparkle statistics and their density
+against the Cox-Munk slope distribution."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sdcomp.render.water import glitter, surface
+from sdcomp.render.water.base import (
+    FACET,
+    GLINT_LN0,
+    GLINT_LN_STEP,
+    SPARKLE_DENSITY,
+    SUN_DISC,
+)
+from sdcomp.render.water.coarse import N_REF
+from sdcomp.render.water.layers import _neutral
+from sdcomp.render.water.optics import fresnel
+from sdcomp.render.water.textures import N_LEVELS, pitch
+from sdcomp.render.water.waves import slope_pdf
+from sdcomp.scene.camera import CameraModel, CameraPose, camera_basis
+from sdcomp.scene.config import GeneratorConfig
+from sdcomp.scene.sample import sample_water
+
+
+def _row(lam: float) -> int:
+    """The glint table's row of ``lam`` sparkles per pixel (nearest ln lam)."""
+    return int(round((math.log(lam) - GLINT_LN0) / GLINT_LN_STEP))
+
+
+def _draw(lam, noise):
+    """The renderer's draw: the glint table's row nearest ln(lam), column = noise."""
+    table = glitter._glint_table()
+    row = np.clip(np.rint((np.log(lam) - GLINT_LN0) / GLINT_LN_STEP), 0,
+                  table.shape[0] - 1).astype(int)
+    col = np.clip(np.rint(noise), 0, table.shape[1] - 1).astype(int)
+    return table[row, col]
+
+
+def test_glint_table_is_quantiles():
+    # rows: ln lam in steps of GLINT_LN_STEP; columns: rising quantiles of the glint
+    table = glitter._glint_table()
+    assert np.all(np.diff(table, axis=1) >= 0)  # each row is a quantile function
+    assert table.min() >= 0
+    # the chance of no sparkle at all, exp(-lam), falls with lam: the first column with a
+    # sparkle moves left row by row (Monte Carlo noise only in the tail's values)
+    first = np.argmax(table > 0, axis=1)
+    assert np.all(np.diff(first[first > 0]) <= 0)
+
+
+@pytest.mark.parametrize("lam", [0.002, 0.02, 0.2, 1.0, 5.0])
+def test_sparkle_count_statistics(water_textures, lam):
+    # a pixel holds at least one sparkle with probability 1 - exp(-lam) (Poisson)
+    noise = water_textures.noise
+    lam_q = math.exp(GLINT_LN0 + GLINT_LN_STEP * _row(lam))  # the table's row
+    s = _draw(np.full(noise.shape, lam), noise)
+    frac = float((s > 0).mean())
+    # the table's row: its first column with a sparkle; nearest-column lookup of the
+    # noise coordinate c (exceedance 10**(-6 c / 255)) makes that column's probability
+    row = glitter._glint_table()[_row(lam)]
+    c_min = int(np.argmax(row > 0))
+    p = 10 ** (-6 * max(c_min - 0.5, 0.0) / 255)
+    sd = math.sqrt(p * (1 - p) / s.size)
+    assert abs(frac - p) < 4 * sd + 1e-4
+    # and that is Poisson's 1 - exp(-lam) up to the columns' spacing (5 % near p = 1)
+    assert abs(p - (1 - math.exp(-lam_q))) < 0.03 + 0.12 * (1 - math.exp(-lam_q))
+
+
+def test_sparkle_mean_is_lambda(water_textures):
+    # compound Poisson of mean-1 intensities: E[S] = lam (the heavy tail makes the mean
+    # noisy: compare medians of means over blocks)
+    noise = water_textures.noise
+    for lam in (0.5, 3.0, 20.0):
+        s = _draw(np.full(noise.shape, lam), noise)
+        blocks = s.reshape(64, -1).mean(1)
+        assert 0.75 * lam < np.median(blocks) < 1.1 * lam
+
+
+def test_slope_pdf_normalised_with_variances():
+    su2, sc2 = 0.02, 0.012
+    x = np.linspace(-2.5, 2.5, 1201)
+    dx = x[1] - x[0]
+    u, c = np.meshgrid(x, x)
+    p = slope_pdf(u, c, su2, sc2)
+    assert abs(p.sum() * dx * dx - 1) < 2e-3
+    assert abs((p * u * u).sum() * dx * dx / su2 - 1) < 0.03
+    assert abs((p * c * c).sum() * dx * dx / sc2 - 1) < 0.03
+    assert abs((p * u * c).sum() * dx * dx) < 1e-6  # no correlation along the wind axes
+    # Gaussian limit
+    g = np.exp(-0.5 * (u ** 2 / su2 + c ** 2 / sc2)) / (2 * math.pi * math.sqrt(su2 * sc2))
+    assert np.max(np.abs(slope_pdf(u, c, su2, sc2, nu=1e6) - g)) < 1e-3 * g.max()
+    # heavier tails than the Gaussian (Cox-Munk's peakedness)
+    assert slope_pdf(0.5, 0.0, su2, sc2) > g[600, np.argmin(abs(x - 0.5))]
+
+
+def _flat_layers(wave_layers):
+    """``wave_layers`` with its three texture layers replaced by a flat surface (slope
+    codes 128): each pixel's slope is then the long waves' only."""
+    def flat(plan, textures, alt, frame, world_off, row_geo):
+        out = wave_layers(plan, textures, alt, frame, world_off, row_geo)
+        for k in ("a4", "b4", "c4"):
+            a = np.empty_like(out[k])
+            a[:] = _neutral(a.shape[1])
+            out[k] = a
+        return out
+    return flat
+
+
+def _expected_sparkles(model: CameraModel, pose: CameraPose, params, info) -> np.ndarray:
+    """(H, W) expected sparkles per pixel from the exact view ray of each pixel: the
+    Cox-Munk glint ``E_sun R(omega) p(z) / (4 cos theta_v cos^4 beta)`` of the facet slope
+    ``z`` that mirrors the sun (Student-t PDF of the unresolved slopes around a flat mean),
+    hazed, SPARKLE_DENSITY sparkles per unit glint radiance in the reference frame, scaled by
+    the facets per pixel, at most one per facet."""
+    sky, waves = info["sky"], info["waves"]
+    w, h = model.width, model.height
+    u = (np.arange(w) + 0.5 - w / 2) / model.fx
+    v = (np.arange(h) + 0.5 - h / 2) / model.fy
+    uu, vv = np.meshgrid(u, v)
+    d = np.stack([uu, vv, np.ones_like(uu)], -1) @ camera_basis(pose.pitch, pose.heading)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    vdir = -d
+    hv = vdir + sky.sun  # the facet normal that mirrors the sun into the camera
+    hv /= np.linalg.norm(hv, axis=-1, keepdims=True)
+    zx, zy = -hv[..., 0] / hv[..., 2], -hv[..., 1] / hv[..., 2]
+    wind = math.radians(info["wind_dir_drawn"])
+    e_u = np.array([math.cos(wind), math.sin(wind)])
+    du = zx * e_u[0] + zy * e_u[1]
+    dc = -zx * e_u[1] + zy * e_u[0]
+    fp = max(pose.altitude / model.fx, pose.altitude / model.fy)
+    flev = float(np.clip(np.log2(fp / pitch(0)), 0.0, N_LEVELS - 1.0))
+    un = waves.unres_at(flev)
+    geo = sky.e_sun * fresnel(np.clip((hv * sky.sun).sum(-1), 0, 1)) / (
+        4 * vdir[..., 2] * hv[..., 2] ** 4)
+    haze = np.exp(-(pose.altitude / vdir[..., 2]) / params.visibility)
+    n_fac = min(max((fp / FACET) ** 2, 0.25), 1e5)
+    dens = SPARKLE_DENSITY * n_fac / N_REF
+    lam = dens * geo * haze * slope_pdf(du, dc, un[0], un[1])
+    return n_fac * -np.expm1(-lam / n_fac)
+
+
+def test_sparkle_density_tracks_cox_munk(water_textures, monkeypatch):
+    """Straight down over flat drawn layers (codes 128: the pixel's slope is the long
+    waves', negligible at 2 m/s), the fraction of pixels that sparkle follows
+    ``1 - exp(-lam)`` with ``lam`` proportional to the Cox-Munk glint of the facet slope
+    that mirrors the sun into that pixel (Student-t PDF of the unresolved slopes; at most
+    one sparkle per facet), within sampling error."""
+    monkeypatch.setattr(surface, "wave_layers", _flat_layers(surface.wave_layers))
+    monkeypatch.setattr(glitter, "SPARKLE_BLUR", False)  # one pixel per sparkle
+    model = CameraModel(width=416, height=416)
+    assert SUN_DISC * math.sqrt(model.fx * model.fy) > 1.5  # (the blur would be on)
+    config = GeneratorConfig()
+    obs, exp_ = [], []
+    for i, (elev, az, alt) in enumerate(((70.0, 10.0, 30.0), (60.0, 200.0, 20.0),
+                                         (78.0, 95.0, 40.0), (55.0, 300.0, 25.0))):
+        p = replace(sample_water(np.random.default_rng(i), config), sky="clear",
+                    cloud_cover=0.0, wind=2.0, wave_age=3.0, slicks=0.0, swell_height=0.0,
+                    sun_elevation=elev, sun_azimuth=az, depth=None)
+        pose = CameraPose(alt, 90.0, 0.0)
+        with_g, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+        without, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+        sparkle = (with_g.astype(int) - without).max(axis=2) > 0
+        obs.append(sparkle.ravel())
+        exp_.append(_expected_sparkles(model, pose, p, info).ravel())
+    obs = np.concatenate(obs)
+    lam = np.concatenate(exp_)
+    edges = np.exp(np.arange(-6.0, 3.1, 0.75))
+    checked = 0
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        sel = (lam >= lo) & (lam < hi)
+        if sel.sum() < 400:
+            continue
+        p_exp = float(np.mean(1 - np.exp(-lam[sel])))
+        p_obs = float(obs[sel].mean())
+        sd = math.sqrt(p_exp * (1 - p_exp) / sel.sum())
+        # sampling error + the coarse grid's interpolation of the smooth terms and the
+        # table's 0.25 steps in ln(lam)
+        assert abs(p_obs - p_exp) < 4 * sd + 0.2 * p_exp, (lo, hi, p_obs, p_exp)
+        checked += 1
+    assert checked >= 5
+    # and far from the sun's mirror direction nothing sparkles
+    assert obs[lam < 1e-4].mean() < 1e-3
+
+
+def test_no_glitter_without_direct_sun(water_textures):
+    """Under an overcast sky (no direct sun) no pixel sparkles, whatever the view."""
+    model = CameraModel(width=256, height=256)
+    p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="overcast",
+                cloud_cover=1.0, wind=5.0, sun_elevation=60.0, sun_azimuth=0.0)
+    pose = CameraPose(30.0, 60.0, 0.0)  # facing the sun
+    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    assert info["glitter_box"] is None and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("lam,base,q", [(0.01, 0.1, 0.5), (0.3, 0.2, 0.3), (2.0, 0.05, 0.2),
+                                        (0.05, 0.0, 1.0)])
+def test_mean_glint_is_the_expected_clipped_glitter(lam, base, q):
+    """The smooth glint (glitter off) is E[min(b + q S, 1)] for the compound Poisson glint S:
+    Poisson(lam) sparkles of Pareto(1.5) intensities with mean 1, checked against a direct
+    Monte Carlo of that sum (within its sampling error and the table's quantisation)."""
+    rng = np.random.default_rng(7)
+    n = 400_000
+    k = rng.poisson(lam, n)
+    s = np.zeros(n)
+    xm = (1.5 - 1) / 1.5
+    for j in range(int(k.max())):
+        sel = k > j
+        s[sel] += xm * (1 - rng.random(int(sel.sum()))) ** (-1 / 1.5)
+    want = float(np.minimum(base + q * s, 1.0).mean())
+    got = float(glitter.expected_clipped(np.array([lam]), np.array([base]),
+                                         np.array([q]))[0])
+    assert got == pytest.approx(want, rel=0.03, abs=2e-4)
