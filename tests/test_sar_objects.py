@@ -148,6 +148,20 @@ def test_seadronessee_preset_has_its_categories_and_distributions():
     assert GeneratorConfig().categories[0]["supercategory"] == "object"  # BlueROV2: as before
 
 
+def test_seadronessee_preset_draws_lake_constances_water():
+    """The preset's water is the clear lake SeaDronesSee was filmed on (chlorophyll 1-3
+    mg/m^3, Secchi depth 6-10 m), not ocean blue or a brown river: the coastal type at
+    turbidity 0.2-0.8, deep water but for a sandy bottom in about 10 % of the frames."""
+    c = GeneratorConfig.from_mapping(preset("seadronessee"))
+    waters = [sample_scene(c, i).water for i in range(200)]
+    assert {w.water_type for w in waters} == {"coastal"}
+    chl = np.array([w.chl for w in waters])
+    assert 0.5 <= chl.min() and chl.max() <= 4.0 and 1.0 < float(np.median(chl)) < 2.5
+    assert max(w.tsm for w in waters) < 4.0  # no sediment-laden water
+    shallow = np.mean([w.depth is not None for w in waters])
+    assert 0.04 < shallow < 0.18, shallow
+
+
 def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
     pairs = [(10, 20), (30, 45), (60, 80), (30, 90)]
     alts, pitches = [a for a, _ in pairs], [p for _, p in pairs]

@@ -6,8 +6,8 @@ at 10 m and 40 m, straight down and oblique (gimbal pitch 45 degrees), with the 
 
 Each cell is the object as it appears in such a frame, cropped around its mask with a
 margin and scaled to the cell (its box size in the full frame is written under it, in
-pixels): blue water (coastal type, turbidity 0.5), wind 3 m/s, a clear sky with the sun at 55
-degrees, no camera effects (the clean look: the renderer's image).
+pixels): the preset's lake water (coastal type, turbidity 0.5), wind 3 m/s, a clear sky with
+the sun at 55 degrees, no camera effects (the clean look: the renderer's image).
 The object stands at the image centre, heading 30 degrees; a window of the full frame
 around it is rendered (same focal length: the same pixels). A variant whose top stands more
 than half the altitude above the water is not drawn there by the generator (a sailboat's mast
@@ -36,7 +36,7 @@ VIEWS = ((10.0, 90.0), (10.0, 45.0), (40.0, 90.0), (40.0, 45.0))  # altitude m, 
 CELL = 200  # pixels
 TURBIDITY = 0.5
 CHL, CDOM, TSM = constituents("coastal", TURBIDITY)
-#: the water of every cell: blue (coastal), calm, deep, a clear sky
+#: the water of every cell: the preset's lake water, calm, deep, a clear sky
 WATER = WaterParams(name="coastal", water_type="coastal", chl=CHL, cdom=CDOM, tsm=TSM,
                     turbidity=TURBIDITY, patchiness=0.0, wind=3.0, sky="clear",
                     sun_elevation=55.0, sun_azimuth=135.0)

@@ -49,10 +49,13 @@ SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7
 SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.0)), 1)
 
 #: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
-#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts; blue and
-#: green lake water (attenuation 0.2-1.3 per metre, as Lake Constance's: a swimmer's body
-#: shows faintly under the head); mostly open water; clutter only of what SeaDronesSee
-#: does not annotate (logs, foam)
+#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts; the water
+#: of Lake Constance, where it was filmed (oligotrophic: chlorophyll 1-3 mg/m^3, little
+#: CDOM, Secchi depths of 6-10 m), which is the ``coastal`` water type at turbidity 0.2-0.8
+#: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
+#: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
+#: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
+#: not annotate (logs, foam)
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n} for k, n in SDS_CLASSES],
     "count": list(SDS_COUNT),
@@ -60,7 +63,7 @@ SEADRONESSEE: dict[str, Any] = {
     "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
     "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],
     "width": 3840, "height": 2160,
-    "water": ["blue", "green"], "turbidity": "0.3-0.7",
+    "water": ["coastal"], "turbidity": "0.2-0.8", "shallow": 0.1,
     "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
 }
 
