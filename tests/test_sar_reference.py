@@ -7,11 +7,14 @@ The dataset is rendered at 1920 x 1080 with the preset's camera (the same field 
 every pixel size is half that of the 3840 x 2160 frames, and is doubled before comparing)
 to keep the test short; the reference is its 3840 x 2160 frames, the ones with flight
 metadata. How close (200 frames; README, "Search-and-rescue objects"): altitudes and pitches
-within a few percent above the pitch floor, swimmers' (60 % of the boxes) lower half of
-sizes within 0-30 %, their upper quantiles and the other classes 1.2-3 times larger: the
+within a few percent above the pitch floor; box sizes larger: swimmers' (60 % of the boxes)
+median 1.5-1.8 times SeaDronesSee's over seeds, the other classes' 1.2-3.8 times: the
 generator places every class anywhere in the frame, while SeaDronesSee's boats and buoys
-are mostly far-off background objects, and its low flights show few objects near the
-drone.
+are mostly far-off background objects and its low flights show few objects near the drone;
+and a swimmer's mask holds its submerged body wherever the water passes more than half of
+its light (in this clear lake water, all of it: issue 19's optics), where SeaDronesSee's
+annotators box what they make out, mostly the head and shoulders. The bounds leave room for
+the draws of another seed, not for a wrong scale (twice the size fails).
 """
 
 from __future__ import annotations
@@ -81,10 +84,10 @@ def test_box_sizes_per_class(pair):
     ratio = {c: quantiles(synth["size"][c]) / quantiles(real["size"][c]) for c in CLASSES}
     why = table(real, synth)
     swimmer = ratio["swimmer"]  # quantiles 0.1, 0.25, 0.5, 0.75, 0.9
-    assert np.all((swimmer[:3] > 1 / 1.6) & (swimmer[:3] < 1.6)), why
+    assert np.all((swimmer[:3] > 1 / 2.0) & (swimmer[:3] < 2.0)), why
     assert np.all((swimmer[3:] > 1 / 2.5) & (swimmer[3:] < 2.5)), why
     for c in CLASSES:
-        assert 1 / 3.2 < ratio[c][2] < 3.2, (c, why)
+        assert 1 / 4.0 < ratio[c][2] < 4.0, (c, why)
     pooled = [np.concatenate(list(s["size"].values())) for s in (real, synth)]
     pooled_ratio = quantiles(pooled[1]) / quantiles(pooled[0])
     assert np.all((pooled_ratio[1:4] > 0.5) & (pooled_ratio[1:4] < 2.0)), why
