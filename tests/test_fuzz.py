@@ -115,8 +115,8 @@ def _named(e: UserError, mapping: dict) -> None:
     for k in mapping:
         n = str(k).replace("-", "_")
         names |= {str(k), n, "--" + n.replace("_", "-")}
-        if n == "objects":
-            names |= {"--object", "--category", "objects"}
+        if n == "objects":  # its setting errors name the flag's setting, "object"
+            names |= {"--object", "--category", "object", "category"}
     names |= {"--camera", "--fov", "--sensor-px"} if set(mapping) & {
         "camera", "fov", "sensor_px", "sensor-px", "width", "height"} else set()
     assert any(n in msg for n in names), (msg, sorted(mapping))
