@@ -16,7 +16,7 @@ only on (config, i): any process, any order, same pixels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,9 +31,10 @@ from .annotate import (
     object_annotations,
 )
 from .assets import clutter as clutter_meshes
-from .assets.library import MeshSpec
+from .assets import sar
+from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
-from .atlas.poses import PoseGrid
+from .atlas.builtin import CLUTTER_ATLAS, object_atlas
 from .atlas.sprites import SpriteSource
 from .atlas.store import AtlasConfig, ensure_atlas
 from .errors import UserError
@@ -41,13 +42,11 @@ from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds
 from .render.textures import Textures
 from .scene.config import GeneratorConfig
-from .scene.sample import clutter_asset, object_asset, sample_scene
+from .scene.objects import clutter_assets, clutter_mesh_name, object_assets, object_kind
+from .scene.sample import sample_scene
 from .scene.scene import FeatureSeeds, Role, Scene
 
 DEFAULT_SPRITES = "sprites"
-#: atlas parameters of clutter meshes: smaller sprites, a coarser pose grid
-CLUTTER_ATLAS = AtlasConfig(size=64, supersample=3,
-                            grid=PoseGrid(off_nadir_step=15.0, max_error=10.0))
 WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
 
 
@@ -78,23 +77,28 @@ class Sample:
 
 class Generator:
     """Renders the images of ``config``. Sprite atlases are loaded from ``sprites_dir`` or
-    built there first (the BlueROV2's takes a few seconds, once)."""
+    built there first, once: one per mesh, and each variant of a search-and-rescue kind is a
+    mesh (the BlueROV2's takes a few seconds; all five kinds' 52 about a minute or two on
+    2 cores; see :mod:`sdcomp.atlas.builtin`)."""
 
     def __init__(self, config: GeneratorConfig, sprites_dir: str | Path = DEFAULT_SPRITES,
                  progress: bool | None = None, build_workers: int | None = None):
         self.config = config
         self.model = config.camera_model()
         sprites: dict[str, SpriteSource] = {}
-        for k, o in enumerate(config.objects):
-            key = object_asset(config, k)
-            if key not in sprites:
-                sprites[key] = _sprites(_load_object(o.mesh), AtlasConfig(), sprites_dir,
-                                        progress, build_workers, rebuild=False)
+        for o in config.objects:
+            for key in object_assets(o.mesh):
+                if key not in sprites:
+                    mesh = _load_object(key)
+                    sprites[key] = _sprites(mesh, object_atlas(mesh, object_kind(key)),
+                                            sprites_dir, progress, build_workers,
+                                            rebuild=is_builtin(key))
         if config.clutter > 0:
             for kind in config.clutter_kinds:
-                sprites[clutter_asset(kind)] = _sprites(
-                    clutter_meshes.build(kind), CLUTTER_ATLAS, sprites_dir, progress,
-                    build_workers, rebuild=True)
+                for key in clutter_assets(kind):
+                    mesh = _clutter_mesh(key)
+                    sprites[key] = _sprites(mesh, CLUTTER_ATLAS, sprites_dir, progress,
+                                            build_workers, rebuild=kind == mesh.name)
         photos = (Backgrounds(config.backgrounds, config.background_labels)
                   if config.backgrounds else None)
         assets = RenderAssets(sprites, Textures.build(config.seed), photos)
@@ -155,9 +159,31 @@ def _sprites(mesh: ColoredMesh, atlas_config: AtlasConfig, sprites_dir: str | Pa
 
 def _load_object(source: str) -> ColoredMesh:
     try:
-        return MeshSpec(source).load()
+        mesh = MeshSpec(source).load()
     except UserError as e:
         raise UserError(f"--object {source}: {e}") from None
+    _remember_top(source, mesh)
+    return mesh
+
+
+def _remember_top(name: str, mesh: ColoredMesh) -> None:
+    """Tell the scene sampler how tall a variant is (it keeps variants lower than half the
+    altitude) from the mesh built here anyway: workers forked later inherit it."""
+    parsed = sar.parse_name(name)
+    if parsed is not None:
+        sar.top_above_water(*parsed, mesh=mesh)
+
+
+def _clutter_mesh(key: str) -> ColoredMesh:
+    """The mesh of a clutter asset key, named after its own atlas (a variant's clutter
+    atlas is smaller than its object atlas, so they must not share a file name)."""
+    name = clutter_mesh_name(key)
+    if name in clutter_meshes.KINDS:
+        return clutter_meshes.build(name)
+    variant = name.removeprefix("clutter-")
+    mesh = build_builtin(variant)
+    _remember_top(variant, mesh)
+    return replace(mesh, name=name)
 
 
 _CACHED: dict[tuple[str, str], Generator] = {}  # per process: see cached_generator

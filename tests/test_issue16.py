@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -109,8 +110,10 @@ def test_resume_refuses_a_format_1_folder(tmp_path, sprites_dir):
 
 
 def test_camera_record_projects_objects_into_their_boxes(tmp_path, sprites_dir):
-    """K, R_w2c and t_w2c of an image project each object's position to inside its box;
-    the heading is DJI's (clockwise from north); visibility is a fraction."""
+    """K, dist_coeffs, R_w2c and t_w2c of an image project each object's position to
+    inside its box (through the lens's distortion, as OpenCV projects); without the
+    distortion and the zoom they are the scene's pinhole camera; the heading is DJI's
+    (clockwise from north); visibility is a fraction."""
     config = GeneratorConfig(width=160, height=120, altitude="5-9", pitch="50-90",
                              clutter=0, count="1-3", seed=9)
     gen = Generator(config, sprites_dir, progress=False)
@@ -123,7 +126,9 @@ def test_camera_record_projects_objects_into_their_boxes(tmp_path, sprites_dir):
         rec = json.loads(line)
         cam, scene = rec["image"]["camera"], gen.scene(rec["index"])
         K, R, t = (np.array(cam[k]) for k in ("K", "R_w2c", "t_w2c"))
-        assert np.allclose(R @ R.T, np.eye(3), atol=1e-8) and cam["dist_coeffs"] == [0.0] * 5
+        dist = np.array(cam["dist_coeffs"], np.float64)
+        assert np.allclose(R @ R.T, np.eye(3), atol=1e-8) and dist.shape == (5,)
+        zoom = K[0, 0] / scene.model.fx  # the lens's zoom scales the focal lengths
         assert (cam["width"], cam["height"]) == (160, 120)
         assert cam["sensor"]["preset"] == "mavic2pro"
         heading = rec["image"]["meta"]["gimbal_heading(degrees)"]
@@ -138,7 +143,11 @@ def test_camera_record_projects_objects_into_their_boxes(tmp_path, sprites_dir):
             cam_pt = R @ world + t
             u, v, _ = K @ (cam_pt / cam_pt[2])
             uv, _ = project(scene.model, scene.camera, world[None])
-            assert [u + 0.5, v + 0.5] == pytest.approx(uv[0].tolist(), abs=1e-3)
+            pinhole = [K[0, 2] + (u - K[0, 2]) / zoom + 0.5,
+                       K[1, 2] + (v - K[1, 2]) / zoom + 0.5]
+            assert pinhole == pytest.approx(uv[0].tolist(), abs=1e-3)
+            seen, _ = cv2.projectPoints(world[None], cv2.Rodrigues(R)[0], t, K, dist)
+            u, v = seen[0, 0]
             x, y, w, h = ann["bbox"]
             if x == 0 or y == 0 or x + w == 160 or y + h == 120:
                 continue  # cut by the frame: its centre may lie outside

@@ -178,6 +178,23 @@ def test_contact_foam_rings_the_waterline():
 
 # --------------------------------------------------------------------------- frames
 
+def test_contact_foam_spares_the_outline_of_submerged_parts():
+    """A swimmer-like body: a dry head on a long limb that lies 0.3 m under the water. The
+    foam rings the head where it meets the water, not the limb's submerged outline."""
+    n = 120
+    yy, xx = np.mgrid[0:n, 0:n]
+    head = np.hypot(yy - 20, xx - 60) < 10
+    limb = (np.abs(xx - 60) < 5) & (yy > 20) & (yy < 110)
+    alpha = (head | limb).astype(np.float32)
+    depth = np.where(head, -0.1, 0.3).astype(np.float32)
+    pad, cover = contact_foam(alpha, depth, 0.01, 0.4, (5,))
+    y, x = np.mgrid[0:n + 2 * pad, 0:n + 2 * pad] - pad
+    around_head = (np.hypot(y - 20, x - 60) > 11) & (np.hypot(y - 20, x - 60) < 20) & (y < 20)
+    beside_limb = (np.abs(np.abs(x - 60) - 9) < 3) & (y > 60) & (y < 100)
+    assert cover[around_head].mean() > 0.01
+    assert cover[beside_limb].max() == 0.0
+
+
 def test_foam_never_changes_the_masks(gen):
     """The foam rings are drawn on the background under every object: building the layers
     with or without them gives the same object weights (so the same masks), and the

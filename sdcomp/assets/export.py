@@ -8,6 +8,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..util.files import atomic_write_bytes
+from . import sar
 from .mesh import ColoredMesh
 
 EXPORT_FORMATS = (".ply", ".glb", ".obj")
@@ -62,3 +63,17 @@ def describe(mesh: ColoredMesh) -> str:
         f"above the lowest point)",
         f"hash:       {mesh.content_hash()[:16]}",
     ])
+
+
+def describe_kind(kind: str) -> str:
+    """One line per variant of the search-and-rescue ``kind``: name, sub-type, size,
+    triangles, height of the waterline above the lowest point (metres)."""
+    lines = [f"{kind}: {sar.VARIANTS[kind]} variants (metres: length x width x height; "
+             f"waterline above the lowest point)"]
+    for v in range(sar.VARIANTS[kind]):
+        m = sar.build(kind, v)
+        x, y, z = m.extents
+        lines.append(f"  {m.name:27s} {sar.describe_variant(kind, v)['sub_type']:14s} "
+                     f"{x:6.2f} x {y:5.2f} x {z:5.2f}  {len(m.faces):5d} triangles  "
+                     f"waterline {m.waterline - m.bounds[0, 2]:.2f}")
+    return "\n".join(lines)

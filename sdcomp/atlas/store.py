@@ -79,33 +79,85 @@ class AtlasConfig:
 
 @dataclass(frozen=True, eq=False)
 class Atlas:
-    """Sprites of one mesh at every pose (arrays as described in the module docstring, but
-    decoded: ``alpha`` float32 in [0, 1], ``normal`` float32, ``height`` float32)."""
+    """Sprites of one mesh at every pose.
+
+    ``encoded`` holds the arrays as stored on disk (see the module docstring); ``alpha``
+    (float32 in [0, 1]), ``albedo`` (uint8 sRGB), ``normal`` (float32) and ``height``
+    (float32 metres) are them decoded, made on first use and kept. :meth:`channels`
+    decodes one pose only: the renderer's path, which keeps just the encoded arrays (9
+    bytes per sprite pixel instead of 23)."""
 
     name: str
-    poses: np.ndarray
-    alpha: np.ndarray
-    albedo: np.ndarray
-    normal: np.ndarray
-    height: np.ndarray
+    encoded: dict[str, np.ndarray]
     metres_per_pixel: float
     index: dict
+    _decoded: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(P, 4) float64 poses, degrees (see :mod:`sdcomp.atlas.poses`)."""
+        return self.encoded["poses"]
+
+    @property
+    def size(self) -> int:
+        """Side of the square sprites, pixels."""
+        return int(self.encoded["alpha"].shape[1])
+
+    def _full(self, key: str) -> np.ndarray:
+        if key not in self._decoded:
+            self._decoded[key] = _DECODE[key](self.encoded[key])
+        return self._decoded[key]
+
+    @property
+    def alpha(self) -> np.ndarray:
+        """(P, S, S) float32 coverage in [0, 1]."""
+        return self._full("alpha")
+
+    @property
+    def albedo(self) -> np.ndarray:
+        """(P, S, S, 3) uint8 sRGB albedo."""
+        return self.encoded["albedo"]
+
+    @property
+    def normal(self) -> np.ndarray:
+        """(P, S, S, 3) float32 normals, camera frame (x right, y up, z towards it)."""
+        return self._full("normal")
+
+    @property
+    def height(self) -> np.ndarray:
+        """(P, S, S) float32 heights above the waterline, metres."""
+        return self._full("height")
 
     @property
     def mask(self) -> np.ndarray:
         """(P, S, S) bool: exactly the pixels with non-zero coverage."""
-        return self.alpha > 0
+        return self.encoded["alpha"] > 0
 
     def __len__(self) -> int:
         return len(self.poses)
 
+    def channels(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Pose ``i`` decoded: alpha (S, S) float32, albedo (S, S, 3) uint8, normal
+        (S, S, 3) float32, height (S, S) float32 (the values of the full decoded arrays)."""
+        e = self.encoded
+        return (_DECODE["alpha"](e["alpha"][i]), e["albedo"][i],
+                _DECODE["normal"](e["normal"][i]), _DECODE["height"](e["height"][i]))
+
     def sprite(self, i: int) -> Sprite:
-        return Sprite(self.alpha[i], self.albedo[i], self.normal[i], self.height[i],
-                      self.alpha[i] > 0)
+        alpha, albedo, normal, height = self.channels(i)
+        return Sprite(alpha, albedo, normal, height, alpha > 0)
 
     def nearest(self, off_nadir: float, azimuth: float) -> int:
         """Index of the stored pose nearest to a view (see :func:`poses.nearest_pose`)."""
         return nearest_pose(self.poses, off_nadir, azimuth)
+
+
+#: decoders of the stored arrays (uint8 coverage x 255, int8 normal x 127, float16 height)
+_DECODE = {
+    "alpha": lambda a: a.astype(np.float32) / np.float32(255.0),
+    "normal": lambda a: a.astype(np.float32) / np.float32(127.0),
+    "height": lambda a: a.astype(np.float32),
+}
 
 
 # --------------------------------------------------------------------------- building
@@ -146,7 +198,7 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
     encoded = _encode(poses, *(np.stack([getattr(s, k) for s in sprites])
                                for k in ("alpha", "albedo", "normal", "height")))
     index = _index(mesh, config, mpp, poses)
-    return _decode(mesh.name, encoded, index)
+    return Atlas(mesh.name, encoded, float(index["metres_per_pixel"]), index)
 
 
 def _encode(poses: np.ndarray, alpha: np.ndarray, albedo: np.ndarray, normal: np.ndarray,
@@ -163,20 +215,6 @@ def _encode(poses: np.ndarray, alpha: np.ndarray, albedo: np.ndarray, normal: np
         "normal": np.rint(normal * 127).astype(np.int8),
         "height": height.astype(np.float16),
     }
-
-
-def _decode(name: str, arrays: dict[str, np.ndarray], index: dict) -> Atlas:
-    normal = arrays["normal"].astype(np.float32) / 127.0
-    return Atlas(
-        name=name,
-        poses=arrays["poses"],
-        alpha=arrays["alpha"].astype(np.float32) / 255.0,
-        albedo=arrays["albedo"],
-        normal=normal,
-        height=arrays["height"].astype(np.float32),
-        metres_per_pixel=float(index["metres_per_pixel"]),
-        index=index,
-    )
 
 
 def cache_key(mesh: ColoredMesh, config: AtlasConfig) -> str:
@@ -226,7 +264,7 @@ def save_atlas(atlas: Atlas, out_dir: str | Path, rebuild_command: str = "") -> 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     npz, idx, _ = atlas_paths(out, atlas.name)
-    arrays = _encode(atlas.poses, atlas.alpha, atlas.albedo, atlas.normal, atlas.height)
+    arrays = atlas.encoded
     with atomic_path(npz) as tmp:
         with open(tmp, "wb") as fh:
             # (numpy's stub types the keyword arrays as its allow_pickle flag)
@@ -311,7 +349,7 @@ def load_atlas(path: str | Path, verify: bool = True) -> Atlas:
             NotImplementedError) as exc:
         raise AtlasError(f"atlas data {str(npz)!r} cannot be read ({exc}): {how}") from None
     _check_arrays(arrays, index, npz, how)
-    return _decode(index.get("name", npz.stem), arrays, index)
+    return Atlas(index.get("name", npz.stem), arrays, float(index["metres_per_pixel"]), index)
 
 
 def _check_arrays(arrays: dict, index: dict, npz: Path, how: str) -> None:

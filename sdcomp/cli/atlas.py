@@ -1,8 +1,12 @@
 """``python -m sdcomp.atlas build|info`` (``sdcomp atlas``): build, reuse or check the
 sprite atlas of a mesh (:mod:`sdcomp.atlas.store`).
 
-    python -m sdcomp.atlas build [--mesh bluerov2|bluerov2-heavy|PATH] [--out sprites/]
+    python -m sdcomp.atlas build [--mesh bluerov2|bluerov2-heavy|KIND|KIND-NN|PATH] [--out sprites/]
     python -m sdcomp.atlas info sprites/bluerov2.npz
+
+A search-and-rescue kind (``--mesh swimmer``) builds the atlas of every variant, with the
+parameters the generator uses for it (:mod:`sdcomp.atlas.builtin`) unless flags say
+otherwise, and the kind's sheet (``<out>/swimmer_sheet.png``: a row per variant).
 """
 
 from __future__ import annotations
@@ -15,10 +19,15 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..assets.library import MeshSpec
+from ..assets import sar
+from ..assets.library import MeshSpec, kind_of
+from ..assets.mesh import ColoredMesh
+from ..atlas.builtin import object_atlas
 from ..atlas.poses import PoseGrid
+from ..atlas.sheet import kind_sheet, write_png
 from ..atlas.store import (
     DEFAULT_OUT,
+    Atlas,
     AtlasConfig,
     atlas_paths,
     ensure_atlas,
@@ -46,17 +55,22 @@ def add_build_arguments(b: argparse.ArgumentParser) -> None:
     """The options of ``atlas build``."""
     add_mesh_arguments(b)
     g = PoseGrid()
+    kinds = " (search-and-rescue kinds: their own, see sdcomp.atlas.builtin)"
     b.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help="atlas folder")
-    b.add_argument("--size", type=int, default=AtlasConfig.size, metavar="PX",
-                   help="sprite side, pixels")
-    b.add_argument("--supersample", type=int, default=AtlasConfig.supersample, metavar="K",
-                   help="K x K sub-pixels per pixel for anti-aliased coverage")
-    b.add_argument("--max-off-nadir", type=float, default=g.max_off_nadir, metavar="DEG",
-                   help="largest camera off-nadir angle stored (0 = straight down)")
-    b.add_argument("--off-nadir-step", type=float, default=g.off_nadir_step, metavar="DEG",
-                   help="spacing of the off-nadir rings")
-    b.add_argument("--max-error", type=float, default=g.max_error, metavar="DEG",
-                   help="largest angle between any view and its nearest stored pose")
+    b.add_argument("--size", type=int, default=None, metavar="PX",
+                   help=f"sprite side, pixels (default: {AtlasConfig.size}{kinds})")
+    b.add_argument("--supersample", type=int, default=None, metavar="K",
+                   help=f"K x K sub-pixels per pixel for anti-aliased coverage (default: "
+                        f"{AtlasConfig.supersample}{kinds})")
+    b.add_argument("--max-off-nadir", type=float, default=None, metavar="DEG",
+                   help=f"largest camera off-nadir angle stored, 0 = straight down (default: "
+                        f"{g.max_off_nadir:g})")
+    b.add_argument("--off-nadir-step", type=float, default=None, metavar="DEG",
+                   help=f"spacing of the off-nadir rings (default: {g.off_nadir_step:g}"
+                        f"{kinds})")
+    b.add_argument("--max-error", type=float, default=None, metavar="DEG",
+                   help=f"largest angle between any view and its nearest stored pose "
+                        f"(default: {g.max_error:g}{kinds})")
     b.add_argument("--workers", type=int, default=None, metavar="N",
                    help="render processes (default: all cores)")
     b.add_argument("--force", action="store_true", help="rebuild even if a matching atlas exists")
@@ -66,10 +80,20 @@ _GRID_FLAGS = (("max off-nadir", "max_off_nadir"), ("off-nadir step", "off_nadir
                ("max error", "max_error"))
 
 
-def _config_from_args(args: argparse.Namespace) -> AtlasConfig:
+def _config_from_args(args: argparse.Namespace, base: AtlasConfig | None = None
+                      ) -> AtlasConfig:
+    """The atlas parameters of the flags, ``base``'s (default: the defaults) where a flag
+    is not given."""
+    base = base or AtlasConfig()
+
+    def given(name: str, default):
+        value = getattr(args, name)
+        return default if value is None else value
+
     try:
-        grid = PoseGrid(max_off_nadir=args.max_off_nadir, off_nadir_step=args.off_nadir_step,
-                        max_error=args.max_error)
+        grid = PoseGrid(max_off_nadir=given("max_off_nadir", base.grid.max_off_nadir),
+                        off_nadir_step=given("off_nadir_step", base.grid.off_nadir_step),
+                        max_error=given("max_error", base.grid.max_error))
     except ValueError as exc:
         msg = str(exc)
         for text, opt in _GRID_FLAGS:  # name the offending flag, as the other messages do
@@ -77,7 +101,8 @@ def _config_from_args(args: argparse.Namespace) -> AtlasConfig:
                 msg = f"--{opt.replace('_', '-')}{msg[len(text):]}"
                 break
         raise UserError(msg) from None
-    return AtlasConfig(size=args.size, supersample=args.supersample, grid=grid)
+    return AtlasConfig(size=given("size", base.size),
+                       supersample=given("supersample", base.supersample), grid=grid)
 
 
 def _rebuild_command(spec: MeshSpec, args: argparse.Namespace) -> str:
@@ -89,10 +114,8 @@ def _rebuild_command(spec: MeshSpec, args: argparse.Namespace) -> str:
             parts.append(f"--color {q(args.color)}")
         if spec.waterline is not None:
             parts.append(f"--waterline {spec.waterline}")
-    defaults = argparse.ArgumentParser()
-    add_build_arguments(defaults)
     for opt in ("size", "supersample", "max_off_nadir", "off_nadir_step", "max_error"):
-        if getattr(args, opt) != defaults.get_default(opt):
+        if getattr(args, opt) is not None:
             parts.append(f"--{opt.replace('_', '-')} {getattr(args, opt)}")
     return " ".join(parts)
 
@@ -139,22 +162,39 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command == "info":
         print(info(args.path))
         return 0
-    config = _config_from_args(args)
+    _config_from_args(args)  # flags checked before anything is built
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers {args.workers} must be at least 1")
     spec = mesh_spec_from_args(args)
-    mesh = spec.load()
     out = Path(args.out)
     _check_out_dir(out)
+    if spec.source not in sar.KINDS:
+        _build_one(spec.load(), kind_of(spec.source) if spec.is_builtin else None, args,
+                   out, _rebuild_command(spec, args))
+        return 0
+    kind, t0 = spec.source, time.perf_counter()
+    atlases = [_build_one(sar.build(kind, v), kind, args, out,
+                          _rebuild_command(MeshSpec(sar.mesh_name(kind, v)), args))
+               for v in range(sar.VARIANTS[kind])]
+    sheet = write_png(kind_sheet(atlases), out / f"{kind}_sheet.png")
+    print(f"{kind}: {len(atlases)} atlases in {time.perf_counter() - t0:.1f} s; sheet {sheet}")
+    return 0
+
+
+def _build_one(mesh: ColoredMesh, kind: str | None, args: argparse.Namespace, out: Path,
+               command: str) -> Atlas:
+    """Build (or reuse) the atlas of ``mesh`` in ``out`` with the flags' parameters over
+    its defaults (those of its search-and-rescue ``kind``, if any), and say so."""
+    config = _config_from_args(args, object_atlas(mesh, kind))
     t0 = time.perf_counter()
     atlas, built = ensure_atlas(mesh, config, out, force=args.force, workers=args.workers,
-                                rebuild_command=_rebuild_command(spec, args))
+                                rebuild_command=command)
     npz, _, png = atlas_paths(out, atlas.name)
     what = f"built in {time.perf_counter() - t0:.1f} s" if built else "up to date, reused"
     print(f"atlas {atlas.name}: {len(atlas)} poses, {config.size} px sprites, "
           f"{1000 * atlas.metres_per_pixel:.2f} mm/px, {what}\n"
           f"  {npz} ({_fmt_bytes(npz.stat().st_size)})\n  {png}")
-    return 0
+    return atlas
 
 
 if __name__ == "__main__":

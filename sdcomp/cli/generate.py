@@ -20,21 +20,25 @@ from ..pipeline import DEFAULT_SPRITES
 from ..run.engines import ENGINES
 from ..run.options import RunOptions
 from ..run.shards import parse_shard
-from ..scene.config import PRESETS, RETIRED, GeneratorConfig, ObjectSpec, load_toml, preset
+from ..scene.config import RETIRED, GeneratorConfig, ObjectSpec, load_toml
+from ..scene.presets import PRESETS, preset
 from ..scene.settings import setting_of
 from ..util.log import add_verbosity_flags, setup_logging
 from . import Parser, prog
 
 
 class _ObjectAction(argparse.Action):
-    """``--object MESH`` appends an object; ``--category NAME`` names the last one."""
+    """``--object MESH`` appends an object; ``--category NAME`` names the last one and
+    ``--weight W`` sets how often it is drawn."""
 
     def __call__(self, parser, namespace, value, option_string=None):
         objs = list(getattr(namespace, "objects", None) or [])
-        if option_string == "--category":
+        if option_string in ("--category", "--weight"):
             if not objs:
-                raise UserError("--category must follow the --object it names")
-            objs[-1] = ObjectSpec(objs[-1].mesh, value)
+                raise UserError(f"{option_string} must follow the --object it is for")
+            last = objs[-1]
+            objs[-1] = (ObjectSpec(last.mesh, value, last.weight) if option_string ==
+                        "--category" else ObjectSpec(last.mesh, last.category, value))
         else:
             objs.append(ObjectSpec(value))
         namespace.objects = objs
@@ -107,6 +111,9 @@ def _add_dataset_options(group: argparse._ArgumentGroup) -> None:
             group.add_argument("--category", dest="objects", action=_ObjectAction,
                                metavar="NAME", help="COCO category of the preceding --object "
                                "(default: the mesh name)")
+            group.add_argument("--weight", dest="objects", action=_ObjectAction,
+                               metavar="W", help="how often the preceding --object is drawn, "
+                               "relative to the other objects' weights (default: 1)")
         elif isinstance(default, bool):
             group.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction,
                                default=None, help=f"{text} (default: {default})")

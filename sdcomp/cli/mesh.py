@@ -2,8 +2,10 @@
 choose and read a mesh (shared with ``sdcomp atlas build``).
 
     python -m sdcomp.mesh export bluerov2 rov.glb        # PLY, GLB or OBJ, with colours
+    python -m sdcomp.mesh export swimmer swimmers.glb    # every variant of a kind, in a row
+    python -m sdcomp.mesh export boat-07 boat.ply        # one variant
     python -m sdcomp.mesh export boat.stl boat.ply --units mm --color 200,40,40
-    python -m sdcomp.mesh info bluerov2-heavy
+    python -m sdcomp.mesh info bluerov2-heavy            # (info KIND: a line per variant)
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from ..assets.export import describe, export_mesh
+from ..assets import sar
+from ..assets.export import describe, describe_kind, export_mesh
 from ..assets.library import BUILTIN, MeshSpec
 from ..assets.meshfile import UNITS, UP_AXES
 from ..errors import UserError, run_cli
@@ -21,8 +24,8 @@ from . import Parser
 
 def add_mesh_arguments(parser: argparse.ArgumentParser, positional: bool = False) -> None:
     """Add the options that choose and read a mesh to ``parser``."""
-    help_src = (f"built-in mesh ({', '.join(BUILTIN)}) or a mesh file "
-                f"(STL, OBJ, PLY, GLB, GLTF, OFF)")
+    help_src = (f"built-in mesh or kind ({', '.join(BUILTIN)}), one variant of a kind "
+                f"(e.g. swimmer-03), or a mesh file (STL, OBJ, PLY, GLB, GLTF, OFF)")
     if positional:
         parser.add_argument("mesh", metavar="NAME_OR_PATH", help=help_src)
     else:
@@ -60,7 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    mesh = mesh_spec_from_args(args).load()
+    spec = mesh_spec_from_args(args)
+    if args.command == "info" and spec.source in sar.KINDS:
+        print(describe_kind(spec.source))
+        return 0
+    mesh = spec.load()
     if args.command == "export":
         out = export_mesh(mesh, args.out)
         print(f"wrote {out} ({len(mesh.faces)} triangles, {out.stat().st_size} bytes)")

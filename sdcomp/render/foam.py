@@ -70,7 +70,8 @@ def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength:
     (negative: above), ``pitch_m`` metres per pixel; the canvas is the sprite's padded by
     ``pad`` pixels on each side. The ring: the hull's pixels at the waterline (within
     :data:`RING_EDGE` of the water, dry next to wet, or on the outline of a wall standing
-    less than :data:`RING_WALL` out of the water), dilated by :data:`RING_WIDTH`, softened,
+    less than :data:`RING_WALL` out of the water; never the outline of a submerged part),
+    dilated by :data:`RING_WIDTH`, softened,
     broken into patches of :data:`FOAM_BUBBLES` (a smooth random field of ``seed``), scaled
     to ``strength``. None when no ring is drawn (no hull at the water: standing clear of it
     or wholly under it; or the band narrower than :data:`RING_MIN_PX`)."""
@@ -84,9 +85,10 @@ def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength:
     near = (cv2.dilate(wet.astype(np.uint8), cross) > 0) & dry
     near |= (cv2.dilate(dry.astype(np.uint8), cross) > 0) & wet
     near |= body & (np.abs(depth) < RING_EDGE)
-    # walls seen from above: the outline of a hull whose edge is near the water
+    # walls seen from above: the outline of a hull whose edge stands near the water (not
+    # the outline of a part wholly under it: a swimmer's legs make no foam)
     outline = body & (cv2.erode(body.astype(np.uint8), cross) == 0)
-    near |= outline & (depth > -RING_WALL)
+    near |= outline & (depth > -RING_WALL) & (depth < RING_EDGE)
     if not dry.any() or not near.any():
         return None
     pad = int(math.ceil(1.5 * width)) + 1

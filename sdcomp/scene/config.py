@@ -15,17 +15,25 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, fields, replace
-from pathlib import Path
 from typing import Any
 
-from ..assets.clutter import KINDS as CLUTTER_KINDS
 from ..errors import SettingError, UserError
 from ..util.log import get_logger
 from .camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .camera import PRESETS as CAMERA_PRESETS
 from .look import PRESETS as LOOK_PRESETS
 from .look import RECORDINGS
+from .objects import (
+    CLUTTER_KINDS,
+    DEFAULT_CLUTTER_KINDS,
+    SUPERCATEGORIES,
+    ObjectSpec,
+    object_kind,
+    object_spec,
+    resolve_clutter_kinds,
+)
 from .params import Param
+from .presets import PRESETS, preset
 from .settings import check_float, int_pair, load_toml, names, setting, setting_of, toml_value
 from .water import SKY_KINDS, WATER_NAMES, parse_water
 
@@ -43,25 +51,6 @@ RETIRED = {
     "exposure": "the camera exposes automatically; --look draws its bias per image",
     "rocks": "the sea floor is sand (--shallow, --floor-depth)",
 }
-
-
-@dataclass(frozen=True)
-class ObjectSpec:
-    """An object of interest: a built-in mesh name or a mesh file, and its COCO category."""
-
-    mesh: str = "bluerov2"
-    category: str = ""
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
-            raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
-                                         "bluerov2-heavy) or a mesh file path")
-        if not self.category:
-            object.__setattr__(self, "category", Path(self.mesh).stem if Path(
-                self.mesh).suffix else self.mesh)
-        if not isinstance(self.category, str) or not self.category.strip():
-            raise SettingError("category", f"{{name}} {self.category!r} must be a non-empty "
-                                           f"name")
 
 
 @dataclass(frozen=True)
@@ -112,6 +101,9 @@ class GeneratorConfig:
                            "down, down to 15", "DEG", *PITCH_RANGE, unit="degrees")
     heading: Param = setting("0-360", "param", "camera heading, degrees", "DEG", -360.0,
                              720.0, "degrees")
+    pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch with the k-th --altitude "
+                               "(two lists of one length: a joint distribution, e.g. from "
+                               "flight logs)")
     # water
     water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "waters, one per "
                                      "image at random: ocean, coastal, turbid, algae, lake, "
@@ -150,8 +142,9 @@ class GeneratorConfig:
     # objects of interest
     objects: tuple[ObjectSpec, ...] = setting(
         (ObjectSpec("bluerov2", "bluerov2"),), "custom", "object of interest: bluerov2, "
-        "bluerov2-heavy or a mesh file (repeat for several; each its own COCO category)",
-        "MESH")
+        "bluerov2-heavy, a search-and-rescue kind (swimmer, boat, jetski, "
+        "life_saving_appliances, buoy: all its variants) or a mesh file (repeat for several; "
+        "each its own COCO category)", "MESH")
     count: Param = setting("1-3", "param", "objects of interest per image (0 allowed: empty "
                            "images)", "K", 0.0, float(MAX_INSTANCES), "objects", True)
     draft: Param = setting("0-0.05", "param", "how far objects sink below their natural "
@@ -162,8 +155,9 @@ class GeneratorConfig:
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")
-    clutter_kinds: tuple[str, ...] = setting(CLUTTER_KINDS, "custom", "clutter kinds to use: "
-                                             f"{', '.join(CLUTTER_KINDS)}", "KIND")
+    clutter_kinds: tuple[str, ...] = setting(DEFAULT_CLUTTER_KINDS, "custom", "clutter kinds "
+                                             f"to use: {', '.join(CLUTTER_KINDS)} (the default "
+                                             "drops kinds that are objects)", "KIND")
     shore: float = setting(0.0, "float", "probability of a shoreline with land at a frame "
                            "edge (off by default: the land is a flat textured meadow, not "
                            "yet an aerial photo of a shore)", "P", 0.0, 1.0)
@@ -212,6 +206,11 @@ class GeneratorConfig:
         if self.sensor_px is not None:
             self._put("sensor_px", int_pair(self.sensor_px, "sensor_px"))
         self.camera_model()  # validates the combination
+        n_alt, n_pitch = len(self.altitude.choices), len(self.pitch.choices)
+        if self.pair_pitch and not n_alt == n_pitch > 0:
+            raise SettingError("pair_pitch", f"{{name}} needs --altitude and --pitch as lists "
+                                             f"of one length (they have {n_alt} and {n_pitch} "
+                                             f"values): give both as lists, or drop {{name}}")
 
     def _check_water(self) -> None:
         """Waters, skies, the camera look and the user's footage (and its labels)."""
@@ -240,7 +239,7 @@ class GeneratorConfig:
         """Objects of interest (each its own category) and the clutter kinds."""
         objs = self.objects
         objs = (objs,) if isinstance(objs, (ObjectSpec, dict)) else names(objs, "object")
-        specs = [_object_spec(o) for o in objs]
+        specs = [object_spec(o) for o in objs]
         if not specs:
             raise SettingError("object", "{name}: give at least one object of interest")
         cats = [s.category for s in specs]
@@ -249,11 +248,7 @@ class GeneratorConfig:
                                            f"{cats}")
         self._put("objects", tuple(specs))
         kinds = names(self.clutter_kinds, "clutter_kinds")
-        for k in kinds:
-            if k not in CLUTTER_KINDS:
-                raise SettingError("clutter_kinds", f"{{name}} {k!r} is unknown; use some of "
-                                                    f"{', '.join(CLUTTER_KINDS)}")
-        self._put("clutter_kinds", tuple(dict.fromkeys(kinds)))
+        self._put("clutter_kinds", resolve_clutter_kinds(kinds, [s.mesh for s in specs]))
 
     # ----------------------------------------------------------------- derived
     def camera_model(self) -> CameraModel:
@@ -279,8 +274,10 @@ class GeneratorConfig:
 
     @property
     def categories(self) -> list[dict]:
-        """COCO categories, ids from 1 in the order of ``objects``."""
-        return [{"id": i + 1, "name": o.category, "supercategory": "object"}
+        """COCO categories, ids from 1 in the order of ``objects`` (supercategories as
+        SeaDronesSee's for its kinds, else "object")."""
+        return [{"id": i + 1, "name": o.category,
+                 "supercategory": SUPERCATEGORIES.get(object_kind(o.mesh) or "", "object")}
                 for i, o in enumerate(self.objects)]
 
     # ----------------------------------------------------------------- (de)serialise
@@ -291,8 +288,9 @@ class GeneratorConfig:
             v = getattr(self, f.name)
             if isinstance(v, Param):
                 v = v.to_json()
-            elif f.name == "objects":
-                v = [{"mesh": o.mesh, "category": o.category} for o in v]
+            elif f.name == "objects":  # weight only where it is not 1 (as before weights)
+                v = [{"mesh": o.mesh, "category": o.category}
+                     | ({"weight": o.weight} if o.weight != 1.0 else {}) for o in v]
             elif isinstance(v, tuple):
                 v = list(v)
             out[f.name] = v
@@ -334,21 +332,6 @@ class GeneratorConfig:
         return replace(base or cls(), **clean)
 
 
-def _object_spec(o: Any) -> ObjectSpec:
-    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category} table."""
-    if isinstance(o, str):
-        return ObjectSpec(o)
-    if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category"}
-        if unknown:
-            raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh and category")
-        return ObjectSpec(**o)
-    if not isinstance(o, ObjectSpec):
-        raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
-    return o
-
-
 def _label_formats(v: Any) -> tuple[str, ...]:
     """The formats of ``--format`` in canonical order (``coco,yolo`` text or a list)."""
     items = [v] if isinstance(v, str) else list(v) if isinstance(v, (list, tuple)) else None
@@ -375,30 +358,6 @@ def _water_text(w: Any) -> str:
                                ) from None
     parse_water(str(w))  # raises UserError for an unknown name or bad RGB
     return str(w)
-
-
-# --------------------------------------------------------------------------- presets
-
-def _paper(**kw: Any) -> dict:
-    # the paper's datasets: one BlueROV2 per image, 416 x 416
-    return {"objects": [{"mesh": "bluerov2", "category": "bluerov2"}], "count": 1,
-            "width": 416, "height": 416, **kw}
-
-
-#: named presets: field values applied over the defaults
-PRESETS: dict[str, dict] = {
-    **{f"paper-alt{a}": _paper(water=["brown"], altitude=a) for a in (10, 20, 30, 40, 50)},
-    "paper-brown": _paper(water=["brown"], altitude=10),
-    "paper-blue": _paper(water=["blue"], altitude=10),
-    "paper-green": _paper(water=["green"], altitude=10),
-}
-
-
-def preset(name: str) -> dict:
-    """The field values of preset ``name``; UserError naming the presets otherwise."""
-    if name not in PRESETS:
-        raise UserError(f"--preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
-    return dict(PRESETS[name])
 
 
 __all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml"]

@@ -17,12 +17,13 @@ from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
+from .objects import clutter_assets, low_enough, object_assets
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
 EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
-CLUTTER_PREFIX = "clutter:"  # asset keys of clutter kinds: "clutter:buoy"
+VARIANT_TINT = (0.85, 1.15, 0.05)  # a variant object's albedo gain range, channel jitter
 
 
 def scene_rng(seed: int, index: int) -> np.random.Generator:
@@ -31,13 +32,14 @@ def scene_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def object_asset(config: GeneratorConfig, k: int) -> str:
-    """Asset key of ``config.objects[k]``: its mesh (a built-in name or a file path)."""
-    return config.objects[k].mesh
+    """Asset key of ``config.objects[k]``: its mesh (a built-in name or a file path), or
+    its first variant's."""
+    return object_assets(config.objects[k].mesh)[0]
 
 
 def clutter_asset(kind: str) -> str:
-    """Asset key of the clutter kind ``kind``."""
-    return CLUTTER_PREFIX + kind
+    """Asset key of the clutter kind ``kind`` (its first variant's)."""
+    return clutter_assets(kind)[0]
 
 
 def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None = None
@@ -45,8 +47,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     """Draw the scene of image ``index``; a pure function of (config, index)."""
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
-    pose = CameraPose(config.altitude.sample(rng), config.pitch.sample(rng),
-                      config.heading.sample(rng) % 360.0)
+    pose = CameraPose(*_altitude_pitch(rng, config), config.heading.sample(rng) % 360.0)
     water = sample_water(rng, config)
     shore = None
     if rng.random() < config.shore:
@@ -128,37 +129,81 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterPara
         exposure_target=rng.uniform(0.16, 0.21), seed=int(rng.integers(2**31)))
 
 
+def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig) -> tuple[float, float]:
+    """The camera's altitude (m) and pitch (degrees): drawn apart, or, with ``pair_pitch``,
+    the pitch at the altitude's place in its list (one draw picks the place as
+    :meth:`Param.sample` would; the pitch's draw is made and unused, so that the draws after
+    it stay where they are)."""
+    if not config.pair_pitch:
+        return config.altitude.sample(rng), config.pitch.sample(rng)
+    n = len(config.altitude.choices)
+    k = min(int(rng.random() * n), n - 1)
+    rng.random()
+    return config.altitude.choices[k], config.pitch.choices[k]
+
+
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
                 pose: CameraPose, shore: Shore | None) -> tuple[Placement, ...]:
     """The objects of interest, then the clutter, each seen in the frame and on water."""
     placements = []
     n_obj = int(config.count.sample(rng))
+    weights = [o.weight for o in config.objects]
+    cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
-        k = int(rng.integers(len(config.objects)))
-        p = _place(rng, config, model, pose, shore, Role.OBJECT, object_asset(config, k),
-                   k + 1)
+        k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
+        p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint)
         if p is not None:
             placements.append(p)
     n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
     for _ in range(n_clutter):
         kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
-        p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_asset(kind), 0,
-                   kind)
+        p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0)
         if p is not None:
             placements.append(p)
     return tuple(placements)
 
 
+def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
+                 cumulative: np.ndarray | None, altitude: float
+                 ) -> tuple[int, str, tuple[float, float, float]]:
+    """(index in ``config.objects``, asset key, albedo gains) of one object of interest:
+    chosen by weight (``cumulative``: the running sums of the weights, None when they are
+    all equal: then drawn as before weights existed), then, for a kind of variants, one
+    variant low enough for the camera's ``altitude`` (:func:`low_enough`) in a shade of
+    its own (draws that objects of one mesh never make)."""
+    if cumulative is None:
+        k = int(rng.integers(len(config.objects)))
+    else:
+        k = min(int(np.searchsorted(cumulative, rng.random() * cumulative[-1], "right")),
+                len(cumulative) - 1)
+    assets = object_assets(config.objects[k].mesh)
+    if len(assets) == 1:
+        return k, assets[0], (1.0, 1.0, 1.0)
+    assets = low_enough(assets, altitude)
+    asset = assets[int(rng.integers(len(assets)))]
+    lo, hi, jitter = VARIANT_TINT
+    gains = rng.uniform(lo, hi) * (1.0 + rng.uniform(-jitter, jitter, 3))
+    return k, asset, (float(gains[0]), float(gains[1]), float(gains[2]))
+
+
 def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
-           pose: CameraPose, shore: Shore | None, role: Role, asset: str, category_id: int,
-           kind: str = "") -> Placement | None:
+           pose: CameraPose, shore: Shore | None, role: Role, assets: tuple[str, ...],
+           category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
+           ) -> Placement | None:
     """A random placement seen in the frame (possibly cut by its edge), on water; None
-    when 8 tries find no such place. Clutter of ``kind`` gets a tint of that kind."""
+    when 8 tries find no such place. An object is ``assets[0]`` in ``tint``; clutter is
+    one of its kind's ``assets`` (variants), or its one mesh in a random shade."""
     u0, v0 = rng.random(), rng.random()
     heading = rng.uniform(0, 360)
     roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
     draft = config.draft.sample(rng) if role is Role.OBJECT else rng.uniform(-0.02, 0.04)
-    tint = _clutter_tint(rng, kind) if role is Role.CLUTTER else (1.0, 1.0, 1.0)
+    asset = assets[0]
+    if role is Role.CLUTTER:  # one draw either way: which variant, or the tint of the one
+        if len(assets) > 1:
+            assets = low_enough(assets, pose.altitude)
+            asset = assets[int(rng.integers(len(assets)))]
+        else:
+            tint = _clutter_tint(rng)
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
@@ -178,13 +223,8 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     return None
 
 
-def _clutter_tint(rng: np.random.Generator, kind: str) -> tuple[float, float, float]:
-    """Albedo gains of one clutter object of ``kind`` (buoys and boats in a few paints)."""
-    if kind == "buoy":  # orange-red, yellow, white or green buoys
-        options = ((1.0, 1.0, 1.0), (1.05, 2.6, 0.5), (1.05, 2.9, 7.0), (0.35, 1.8, 1.4))
-        return options[int(rng.integers(len(options)))]
-    if kind == "boat":  # white, blue or red hulls (the hull is white: gains darken it)
-        options = ((1.0, 1.0, 1.0), (0.35, 0.55, 0.95), (0.9, 0.3, 0.3), (0.8, 0.8, 0.8))
-        return options[int(rng.integers(len(options)))]
+def _clutter_tint(rng: np.random.Generator) -> tuple[float, float, float]:
+    """Albedo gains of one clutter object of a kind with one mesh (logs, foam): lighter or
+    darker."""
     g = rng.uniform(0.8, 1.15)
     return (g, g, g)

@@ -23,11 +23,13 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
+from ...assets.library import kind_of
 from ...errors import UserError
 from ...render.camera.lens import undistort
 from ...scene.camera import CameraModel, CameraPose, ground_points, horizon_row
 from ...scene.config import GeneratorConfig
-from ...scene.sample import CLUTTER_PREFIX, sample_scene
+from ...scene.objects import CLUTTER_PREFIX
+from ...scene.sample import sample_scene
 from ...scene.scene import Role, Scene, on_land
 
 ALTITUDE_KEY = "height_above_takeoff(meter)"
@@ -36,9 +38,11 @@ HEADING_KEY = "gimbal_heading(degrees)"
 GSD_KEY = "gsd(m/px)"
 SKY_MARGIN_ROWS = 2.0
 FOAM_M = 0.3  #: metres of foam line beside the land (widened by 2 px more)
-#: metres around a clutter object's centre left out by ``exclude_clutter``: half its length
-#: (buoy 0.55 m, log 2.2 m, boat 3.56 m, foam 1.5 m) plus 1 m for its shadow
-CLUTTER_RADIUS = {"buoy": 1.3, "log": 2.1, "boat": 2.8, "foam": 1.8}
+#: metres around a clutter object's centre left out by ``exclude_clutter``: half its kind's
+#: longest length (log 2.2 m, foam 1.5 m; the search-and-rescue kinds' largest variants:
+#: boats 12 m, jet skis 3.5 m) plus 1 m for its shadow
+CLUTTER_RADIUS = {"buoy": 1.8, "log": 2.1, "boat": 7.0, "foam": 1.8, "swimmer": 2.0,
+                  "jetski": 2.8, "life_saving_appliances": 2.0}
 
 
 def num(meta: dict, key: str) -> float | None:
@@ -116,7 +120,8 @@ class SeaOracle:
                 bad |= cv2.dilate(land, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
                 how.append("land excluded")
             for p in clutter:
-                radius = CLUTTER_RADIUS.get(p.asset.removeprefix(CLUTTER_PREFIX),
+                name = p.asset.removeprefix(CLUTTER_PREFIX)
+                radius = CLUTTER_RADIUS.get(kind_of(name) or name,
                                             max(CLUTTER_RADIUS.values()))
                 bad |= hit & (np.hypot(x - p.x, y - p.y) < radius)
             if clutter:

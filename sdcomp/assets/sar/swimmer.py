@@ -1,0 +1,222 @@
+"""Swimmers: a whole person in the water, mostly submerged, in one of six poses.
+
+Poses (``params["pose"]["name"]``):
+
+- ``tread``: upright, treading water, hands sculling at the surface; mouth at the surface.
+- ``wave``: upright, one arm raised straight up (the distress wave); neck above water.
+- ``distress``: instinctive drowning response: upright, head tilted back, arms pressing
+  sideways at the surface; only the face above water.
+- ``crawl``: face down, one arm reaching forward, the other pulling under the body or
+  recovering above the water; the back just awash.
+- ``breast``: breaststroke, body inclined 55-70 degrees, head up, arms sweeping, frog legs.
+- ``back``: floating on the back, arms spread or at the sides, face and chest awash.
+
+The whole body is modelled (the renderer shows submerged parts through the water). The
+waterline follows the pose (head-referenced), not a buoyancy balance: a swimmer holds the head
+up by effort. Outfits: swimwear, wetsuits (full or shorty), clothes (a person overboard), each
+optionally with a foam life vest or an inflated yoke; hair styles or a swim cap.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..mesh import ColoredMesh
+from ..solids import Painter
+from . import palette
+from .common import jitter, pick
+from .person import Body, Outfit, Pose, build_person
+
+POSES = ("tread", "wave", "crawl", "breast", "back", "distress")
+SUB_TYPES = POSES
+OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
+HAIR = ("short", "long", "bald", "cap")
+
+
+def _dir(rng: np.random.Generator, v, deg: float = 10.0) -> list[float]:
+    """Unit vector ``v`` turned by up to ``deg`` degrees in a random direction (3 decimals)."""
+    v = np.asarray(v, dtype=float)
+    v = v / np.linalg.norm(v)
+    off = rng.normal(size=3)
+    off -= np.dot(off, v) * v
+    off /= max(float(np.linalg.norm(off)), 1e-9)
+    t = math.radians(rng.uniform(0.0, deg))
+    out = v * math.cos(t) + off * math.sin(t)
+    return [round(float(x), 3) for x in out]
+
+
+def _mirror(v) -> list[float]:
+    return [v[0], -v[1], v[2]]
+
+
+def _sym(rng, upper, lower, deg=10.0):
+    """(left, right) limb: the right mirrors the left in y, each jittered on its own."""
+    left = [_dir(rng, upper, deg), _dir(rng, lower, deg)]
+    right = [_dir(rng, _mirror(upper), deg), _dir(rng, _mirror(lower), deg)]
+    return [left, right]
+
+
+def _pose(name: str, rng: np.random.Generator) -> dict:
+    """Limb directions (local body frame), orientation and waterline rule of a pose."""
+    side = int(rng.integers(2))  # which arm does the odd thing
+    legs_hang = _sym(rng, (0.05, 0.10, -1.0), (0.0, 0.05, -1.0), 8)
+    feet_pointed = [_dir(rng, (0.2, 0.1, -1), 10), _dir(rng, (0.2, -0.1, -1), 10)]
+    p: dict = {"name": name, "head_pitch": 0.0, "head_yaw": 0.0, "roll": 0.0, "flip": False}
+    if name in ("tread", "wave"):
+        arms = _sym(rng, (0.35, 0.75, -0.45), (0.65, 0.55, -0.10))
+        legs = [[_dir(rng, (0.55, 0.25, -0.8)), _dir(rng, (-0.3, 0.15, -0.95))],
+                [_dir(rng, (0.15, -0.25, -0.95)), _dir(rng, (-0.45, -0.1, -0.88))]]
+        if name == "wave":
+            up = (0.05, 0.30, 0.95) if side == 0 else (0.05, -0.30, 0.95)
+            arms[side] = [_dir(rng, up, 8), _dir(rng, (0.05, 0.1 - 0.2 * side, 1.0), 12)]
+        p.update(arms=arms, legs=legs, feet=[_dir(rng, (0.6, 0.1, -0.8)),
+                                             _dir(rng, (0.3, -0.1, -0.9))],
+                 pitch=round(float(rng.uniform(5, 20)), 1),
+                 head_pitch=round(float(rng.uniform(-12, 5)), 1),
+                 head_yaw=round(float(rng.uniform(-30, 30)), 1),
+                 water="chin", water_offset=round(float(
+                     rng.uniform(-0.02, 0.03) if name == "tread" else rng.uniform(-0.09, -0.03)),
+                     3))
+    elif name == "distress":
+        p.update(arms=_sym(rng, (0.15, 0.95, 0.0), (0.25, 0.9, -0.15)), legs=legs_hang,
+                 feet=feet_pointed, pitch=round(float(rng.uniform(-5, 8)), 1),
+                 head_pitch=round(float(rng.uniform(-40, -25)), 1),
+                 water="chin", water_offset=round(float(rng.uniform(0.04, 0.07)), 3))
+    elif name == "crawl":
+        lead = [_dir(rng, (0.10, 0.22, 0.97), 6), _dir(rng, (0.05, 0.12, 0.99), 6)]
+        if rng.random() < 0.5:  # pulling under the body (local +x points down)
+            other = [_dir(rng, (0.85, -0.2, 0.45), 10), _dir(rng, (0.9, 0.05, -0.4), 10)]
+        else:  # recovering above the water, elbow high
+            other = [_dir(rng, (-0.6, -0.65, -0.45), 10), _dir(rng, (0.45, -0.2, 0.85), 10)]
+        arms = [lead, other] if side == 0 else [[_mirror(other[0]), _mirror(other[1])],
+                                                [_mirror(lead[0]), _mirror(lead[1])]]
+        kick = float(rng.uniform(0.08, 0.2))
+        legs = [[_dir(rng, (kick, 0.05, -1.0), 4), _dir(rng, (kick * 0.5, 0.03, -1.0), 4)],
+                [_dir(rng, (-kick, -0.05, -1.0), 4), _dir(rng, (-kick, -0.03, -1.0), 4)]]
+        p.update(arms=arms, legs=legs, feet=[_dir(rng, (-0.3, 0.05, -1), 8),
+                                             _dir(rng, (-0.3, -0.05, -1), 8)],
+                 pitch=round(float(rng.uniform(76, 86)), 1),
+                 head_pitch=round(float(rng.uniform(-5, 10)), 1),
+                 head_yaw=round(float(pick(rng, (0.0, 0.0, 60.0, -60.0))), 1),
+                 roll=round(float(rng.uniform(-15, 15)), 1),
+                 water="back", water_offset=round(float(rng.uniform(-0.08, -0.04)), 3))
+    elif name == "breast":
+        if rng.random() < 0.5:  # out-sweep
+            arms = _sym(rng, (0.35, 0.70, 0.62), (0.55, 0.35, 0.75))
+        else:  # glide, arms forward
+            arms = _sym(rng, (0.30, 0.28, 0.91), (0.25, 0.12, 0.96), 6)
+        if rng.random() < 0.5:  # frog kick, knees out, heels to the seat
+            legs = _sym(rng, (-0.05, 0.55, -0.83), (-0.75, 0.35, -0.55), 8)
+        else:
+            legs = _sym(rng, (-0.05, 0.2, -1.0), (-0.05, 0.1, -1.0), 6)
+        pitch = float(rng.uniform(55, 72))
+        p.update(arms=arms, legs=legs, feet=[_dir(rng, (0.0, 0.6, -0.8)),
+                                             _dir(rng, (0.0, -0.6, -0.8))],
+                 pitch=round(pitch, 1), head_pitch=round(-pitch + float(rng.uniform(5, 20)), 1),
+                 water="chin", water_offset=round(float(rng.uniform(-0.02, 0.02)), 3))
+    elif name == "back":
+        if rng.random() < 0.6:  # star float
+            arms = _sym(rng, (0.0, 0.85, 0.45), (0.05, 0.8, 0.55), 10)
+            legs = _sym(rng, (0.0, 0.30, -1.0), (0.0, 0.15, -1.0), 6)
+        else:
+            arms = _sym(rng, (-0.1, 0.3, -0.95), (0.0, 0.25, -0.95), 8)
+            legs = _sym(rng, (0.0, 0.08, -1.0), (0.0, 0.04, -1.0), 5)
+        p.update(arms=arms, legs=legs, feet=[_dir(rng, (0.4, 0.1, -1)),
+                                             _dir(rng, (0.4, -0.1, -1))],
+                 pitch=round(float(rng.uniform(-85, -70)), 1), flip=True,
+                 head_pitch=round(float(rng.uniform(-15, 5)), 1),
+                 water="nose", water_offset=round(float(rng.uniform(-0.12, -0.08)), 3))
+    else:
+        raise ValueError(f"unknown pose {name!r}")
+    return p
+
+
+def _outfit(rng: np.random.Generator, pose: str) -> dict:
+    """Colours (sRGB lists) of every part, hair and vest; JSON-able."""
+    tone = int(rng.integers(len(palette.SKIN_MONK)))
+    skin = jitter(palette.skin(tone), rng, 0.04)
+    kind = pick(rng, ("swimwear", "swimwear", "wetsuit", "shorty", "clothes"))
+    c = dict.fromkeys(("chest", "hips", "upper_arm", "forearm", "hand", "thigh", "shin",
+                       "foot", "neck"), skin)
+    if kind == "swimwear":
+        c["hips"] = jitter(pick(rng, palette.SWIMWEAR), rng)
+        if rng.random() < 0.4:  # swimsuit
+            c["chest"] = c["hips"]
+    elif kind in ("wetsuit", "shorty"):
+        suit = jitter(pick(rng, palette.WETSUIT), rng, 0.08)
+        parts: tuple[str, ...] = ("chest", "hips", "upper_arm", "thigh", "neck")
+        if kind == "wetsuit":
+            parts += ("forearm", "shin")
+        for k in parts:
+            c[k] = suit
+        if kind == "wetsuit" and rng.random() < 0.5:  # coloured chest panel
+            c["chest"] = jitter(pick(rng, palette.SWIMWEAR), rng)
+    else:
+        shirt = jitter(pick(rng, palette.SHIRTS), rng)
+        trousers = jitter(pick(rng, palette.TROUSERS), rng)
+        c.update(chest=shirt, upper_arm=shirt, hips=trousers, thigh=trousers, shin=trousers)
+        if rng.random() < 0.5:
+            c["forearm"] = shirt
+        c["foot"] = jitter(pick(rng, palette.SHOES), rng)
+    hair_style = pick(rng, HAIR)
+    hair = (jitter(pick(rng, palette.SWIM_CAPS), rng) if hair_style == "cap"
+            else jitter(palette.wet_hair(pick(rng, palette.HAIR)), rng))
+    vest_p = 0.5 if pose in ("tread", "back", "distress", "wave") else 0.15
+    vest = None
+    vest_style = "foam"
+    if kind == "clothes" or rng.random() < vest_p:
+        if rng.random() < 0.8 or kind == "clothes":
+            vest = jitter(pick(rng, palette.VESTS), rng)
+            vest_style = pick(rng, ("foam", "foam", "yoke"))
+    return {"outfit": kind, "skin_tone_mst": tone + 1, "skin": list(skin),
+            "parts": {k: list(v) for k, v in c.items()},
+            "hair_style": hair_style, "hair": list(hair),
+            "vest": None if vest is None else list(vest), "vest_style": vest_style}
+
+
+def draw(rng: np.random.Generator, variant: int) -> dict:
+    """The drawn parameters of swimmer ``variant`` (JSON-able; metres, degrees, sRGB)."""
+    pose = POSES[variant % len(POSES)]
+    female = bool(rng.random() < 0.45)
+    stature = float(rng.normal(1.63, 0.06) if female else rng.normal(1.76, 0.07))
+    stature = float(np.clip(stature, 1.50, 1.95))
+    shoulders = float(np.clip(stature * (0.225 if female else 0.236) * rng.normal(1, 0.04),
+                              0.32, 0.46))
+    hips = float(np.clip(stature * (0.21 if female else 0.195) * rng.normal(1, 0.04),
+                         0.28, 0.40))
+    body = {"stature": round(stature, 3), "shoulders": round(shoulders, 3),
+            "hips": round(hips, 3),
+            "head_breadth": round(float(np.clip(rng.normal(0.147 if female else 0.155, 0.005),
+                                                0.135, 0.170)), 3),
+            "head_length": round(float(np.clip(rng.normal(0.189 if female else 0.199, 0.007),
+                                               0.170, 0.215)), 3),
+            "girth": round(float(rng.uniform(0.9, 1.15)), 3), "female": female}
+    return {"kind": "swimmer", "sub_type": pose, "body": body, "pose": _pose(pose, rng),
+            **_outfit(rng, pose)}
+
+
+def _to_pose(p: dict) -> Pose:
+    return Pose(arms=tuple(tuple(map(tuple, a)) for a in p["arms"]),
+                legs=tuple(tuple(map(tuple, leg)) for leg in p["legs"]),
+                feet=tuple(map(tuple, p["feet"])), head_pitch=p["head_pitch"],
+                head_yaw=p["head_yaw"], pitch=p["pitch"], roll=p["roll"], flip=p["flip"])
+
+
+def make(params: dict, name: str) -> ColoredMesh:
+    """Build the swimmer described by ``params`` (from :func:`draw`)."""
+    b = params["body"]
+    body = Body(b["stature"], b["shoulders"], b["hips"], b["head_breadth"], b["head_length"],
+                b["girth"])
+    parts = {k: tuple(v) for k, v in params["parts"].items()}
+    outfit = Outfit(skin=tuple(params["skin"]), hair=tuple(params["hair"]),
+                    hair_style=params["hair_style"],
+                    vest=None if params["vest"] is None else tuple(params["vest"]),
+                    vest_style=params["vest_style"], **parts)
+    pose = params["pose"]
+    painter = Painter()
+    solid, joints = build_person(painter, body, _to_pose(pose), outfit)
+    back = max(joints[k][2] for k in ("pelvis", "neck", "shoulder_l", "shoulder_r")) + 0.10
+    ref = {"chin": joints["chin"][2], "nose": joints["nose"][2], "back": back}[pose["water"]]
+    return painter.finish(solid, ref + pose["water_offset"], name)

@@ -1,0 +1,144 @@
+"""What floats in a scene, by name: objects of interest (:class:`ObjectSpec`) and clutter
+kinds, the asset keys (sprite names) each is drawn from, and the rules that keep the two
+apart.
+
+An object names a built-in mesh, a search-and-rescue kind (all its variants: ``swimmer`` is
+``swimmer-00`` ... ``swimmer-11``), a single variant, or a mesh file; its asset keys are
+those mesh names (or the file path). A clutter kind is a search-and-rescue kind (its
+variants, as distractors: asset keys ``clutter:boat-03``) or one of the clutter-only
+meshes, ``log`` and ``foam`` (``clutter:log``). A kind is never both in one run: the
+default clutter list drops the kinds that are objects; a list given by the user that names
+one is refused (:func:`resolve_clutter_kinds`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..assets import library, sar
+from ..errors import SettingError, UserError
+
+CLUTTER_PREFIX = "clutter:"  # asset keys of clutter: "clutter:log", "clutter:boat-03"
+#: clutter kinds drawn when none are given
+DEFAULT_CLUTTER_KINDS = ("buoy", "log", "boat", "foam")
+#: every clutter kind: the defaults, then the other search-and-rescue kinds
+CLUTTER_KINDS = (*DEFAULT_CLUTTER_KINDS,
+                 *(k for k in sar.KINDS if k not in DEFAULT_CLUTTER_KINDS))
+#: COCO supercategories of the search-and-rescue kinds (SeaDronesSee's)
+SUPERCATEGORIES = {"swimmer": "person", "boat": "boat", "jetski": "boat",
+                   "life_saving_appliances": "object", "buoy": "object"}
+
+
+def _positive(v: Any) -> bool:
+    """Whether ``v`` (a number or its text) is a finite number above 0."""
+    try:
+        return 0.0 < float(v) < math.inf
+    except ValueError:
+        return False
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """An object of interest: a built-in mesh or kind name (a kind stands for all its
+    variants) or a mesh file, its COCO category, and its
+    ``weight``: how often it is drawn relative to the other objects (class proportions)."""
+
+    mesh: str = "bluerov2"
+    category: str = ""
+    weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
+            raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
+                                         "bluerov2-heavy, swimmer, boat, jetski, "
+                                         "life_saving_appliances, buoy) or a mesh file path")
+        w = self.weight
+        if isinstance(w, bool) or not isinstance(w, (int, float, str)) or not _positive(w):
+            raise SettingError("weight", f"{{name}} {w!r} must be a positive number (how "
+                                         f"often this object is drawn relative to the others)")
+        object.__setattr__(self, "weight", float(w))
+        if not self.category:
+            object.__setattr__(self, "category", Path(self.mesh).stem if Path(
+                self.mesh).suffix else self.mesh)
+        if not isinstance(self.category, str) or not self.category.strip():
+            raise SettingError("category", f"{{name}} {self.category!r} must be a non-empty "
+                                           f"name")
+
+
+def object_spec(o: Any) -> ObjectSpec:
+    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight} table
+    (UserError for another key, SettingError for a bad value)."""
+    if isinstance(o, str):
+        return ObjectSpec(o)
+    if isinstance(o, dict):
+        unknown = set(o) - {"mesh", "category", "weight"}
+        if unknown:
+            raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
+                            f"use mesh, category and weight")
+        return ObjectSpec(**o)
+    if not isinstance(o, ObjectSpec):
+        raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
+    return o
+
+
+def object_kind(mesh: str) -> str | None:
+    """The search-and-rescue kind an object's ``mesh`` (a kind or a variant name) is of;
+    None for the BlueROV2 and mesh files."""
+    return library.kind_of(mesh) if library.is_builtin(mesh) else None
+
+
+def object_assets(mesh: str) -> tuple[str, ...]:
+    """Asset keys an object of ``mesh`` is drawn from, one per variant (one for a single
+    mesh)."""
+    return library.variants(mesh) if library.is_builtin(mesh) else (mesh,)
+
+
+def clutter_assets(kind: str) -> tuple[str, ...]:
+    """Asset keys of clutter ``kind``, one per variant."""
+    return tuple(CLUTTER_PREFIX + name for name in library.variants(kind))
+
+
+def clutter_mesh_name(asset: str) -> str:
+    """The mesh (and atlas file) name of a clutter asset key: ``clutter-boat-03`` for a
+    variant (its own, smaller atlas beside an object's ``boat-03``), ``log`` for a
+    clutter-only mesh."""
+    name = asset.removeprefix(CLUTTER_PREFIX)
+    return "clutter-" + name if library.kind_of(name) else name
+
+
+def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
+    """The variants among ``assets`` (object or clutter keys of one kind) whose top stands
+    at most half the camera's ``altitude`` (m) above the water (all of them if none does):
+    a taller object, a sailboat's mast under a low drone, would be drawn at the scale of
+    its middle, far too large (the renderer linearises the perspective at the object)."""
+    low = tuple(a for a in assets if _top(a) <= 0.5 * altitude)
+    return low or assets
+
+
+def _top(asset: str) -> float:
+    parsed = sar.parse_name(asset.removeprefix(CLUTTER_PREFIX))
+    return 0.0 if parsed is None else sar.top_above_water(*parsed)
+
+
+def resolve_clutter_kinds(kinds: tuple[str, ...], object_meshes: list[str]
+                          ) -> tuple[str, ...]:
+    """``kinds`` checked and without repeats; the kinds of ``object_meshes`` are dropped
+    from the default list and refused (SettingError) from any other."""
+    for k in kinds:
+        if k not in CLUTTER_KINDS:
+            raise SettingError("clutter_kinds", f"{{name}} {k!r} is unknown; use some of "
+                                                f"{', '.join(CLUTTER_KINDS)}")
+    kinds = tuple(dict.fromkeys(kinds))
+    taken = {object_kind(m) for m in object_meshes} - {None}
+    if kinds == DEFAULT_CLUTTER_KINDS:
+        return tuple(k for k in kinds if k not in taken)
+    both = [k for k in kinds if k in taken]
+    if both:
+        rest = " ".join(k for k in kinds if k not in taken)
+        fix = f"e.g. {{name}} {rest}" if rest else "or set --clutter 0"
+        raise SettingError("clutter_kinds", f"{{name}} {both[0]} is also an --object, "
+                                            f"annotated there: leave it out ({fix})")
+    return kinds

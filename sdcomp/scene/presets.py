@@ -1,0 +1,84 @@
+"""Named presets of the generator: field values applied over the defaults (``--preset``).
+
+- ``paper-alt10`` ... ``paper-alt50``, ``paper-brown``, ``paper-blue``, ``paper-green``:
+  SeaDroneSim's datasets, one BlueROV2 per 416 x 416 image.
+- ``seadronessee``: SeaDronesSee's five classes (:mod:`sdcomp.assets.sar`) with its category
+  ids and names, class proportions, altitudes and gimbal pitches (as pairs), objects per
+  image and frame size, over open water (see :data:`SEADRONESSEE`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ..errors import UserError
+from .camera import PITCH_RANGE
+
+
+def _paper(**kw: Any) -> dict:
+    # the paper's datasets: one BlueROV2 per image, 416 x 416
+    return {"objects": [{"mesh": "bluerov2", "category": "bluerov2"}], "count": 1,
+            "width": 416, "height": 416, **kw}
+
+
+# SeaDronesSee object detection v2, validation split (1547 frames, 9630 boxes): annotations
+# per class; the (height above take-off m, gimbal pitch degrees below the horizon) of 100 of
+# its 1030 frames with flight metadata (all 3840 x 2160), every 10.3th in order of altitude
+# then pitch: the pairs keep the joint distribution (higher flights look more steeply
+# down, correlation 0.38), which sets how far away the objects are; drawn paired
+# (pair_pitch). Pitches under sdcomp's floor of 15 degrees (12 % of the frames: 0-14
+# degrees, nearly level views) are drawn at 15. And the boxes per frame, as 40 quantiles
+# (at (i + 0.5) / 40). A list is drawn uniformly, so the lists reproduce the distributions.
+SDS_CLASSES = (("swimmer", 6206), ("boat", 2214), ("jetski", 320),
+               ("life_saving_appliances", 330), ("buoy", 560))
+SDS_ALTITUDE = (6, 9, 9, 9, 9, 9, 10, 10, 10, 10, 10, 10, 15, 17, 17, 17, 17, 17, 17, 17, 18,
+                18, 18, 19, 20, 25, 28, 28, 29, 30, 30, 30, 30, 30, 31, 31, 32, 32, 32, 32, 32,
+                32, 32, 34, 34, 36, 36, 36, 36, 36, 36, 37, 37, 37, 37, 37, 37, 37, 37, 37, 38,
+                38, 38, 38, 38, 40, 41, 43, 44, 48, 48, 48, 48, 48, 48, 48, 48, 48, 50, 50, 52,
+                52, 52, 52, 52, 52, 56, 60, 60, 60, 60, 61, 61, 96, 96, 96, 96, 96, 96, 124)
+SDS_PITCH = (75, 45, 45, 52, 66, 59, 15, 14, 11, 18, 11, 16, 34, 34, 2, 2, 2, 2, 34, 28, 28, 28,
+             34, 34, 34, 55, 55, 61, 52, 55, 83, 37, 56, 37, 37, 37, 27, 27, 61, 27, 27, 27, 55,
+             55, 55, 25, 25, 25, 25, 25, 46, 36, 35, 35, 36, 36, 36, 35, 35, 36, 35, 39, 38, 38,
+             58, 34, 0, 78, 90, 36, 36, 36, 36, 36, 36, 36, 36, 36, 29, 29, 40, 40, 44, 46, 40,
+             46, 90, 8, 8, 8, 8, 40, 36, 71, 71, 71, 71, 71, 71, 77)
+SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7, 7, 7, 7, 8, 9,
+             9, 9, 9, 10, 10, 11, 11, 12, 13, 13, 13, 14)
+# the DJI Mavic 2 Pro's 4K video (most of SeaDronesSee's metadata frames): 28 mm equivalent
+# lens, full sensor width in 16:9, i.e. 65.5 degrees across, 72.8 diagonally (fx = 2987 px)
+SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.0)), 1)
+
+#: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
+#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts; the water
+#: of Lake Constance, where it was filmed (oligotrophic: chlorophyll 1-3 mg/m^3, little
+#: CDOM, Secchi depths of 6-10 m), which is the ``coastal`` water type at turbidity 0.2-0.8
+#: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
+#: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
+#: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
+#: not annotate (logs, foam)
+SEADRONESSEE: dict[str, Any] = {
+    "objects": [{"mesh": k, "category": k, "weight": n} for k, n in SDS_CLASSES],
+    "count": list(SDS_COUNT),
+    "altitude": list(SDS_ALTITUDE),
+    "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
+    "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],
+    "width": 3840, "height": 2160,
+    "water": ["coastal"], "turbidity": "0.2-0.8", "shallow": 0.1,
+    "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
+}
+
+#: named presets: field values applied over the defaults
+PRESETS: dict[str, dict] = {
+    **{f"paper-alt{a}": _paper(water=["brown"], altitude=a) for a in (10, 20, 30, 40, 50)},
+    "paper-brown": _paper(water=["brown"], altitude=10),
+    "paper-blue": _paper(water=["blue"], altitude=10),
+    "paper-green": _paper(water=["green"], altitude=10),
+    "seadronessee": SEADRONESSEE,
+}
+
+
+def preset(name: str) -> dict:
+    """The field values of preset ``name``; UserError naming the presets otherwise."""
+    if name not in PRESETS:
+        raise UserError(f"--preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
+    return dict(PRESETS[name])

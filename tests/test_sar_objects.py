@@ -1,0 +1,201 @@
+"""Search-and-rescue kinds as objects and clutter: the config (weights, categories, clutter
+kinds that are objects), the scenes drawn from it (variants, shades, proportions), and that
+configs of one-mesh objects draw the scenes they drew before these kinds existed."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sdcomp import GeneratorConfig
+from sdcomp.assets import sar
+from sdcomp.errors import SettingError, UserError
+from sdcomp.scene.config import ObjectSpec
+from sdcomp.scene.objects import (
+    CLUTTER_KINDS,
+    DEFAULT_CLUTTER_KINDS,
+    clutter_assets,
+    clutter_mesh_name,
+    object_assets,
+)
+from sdcomp.scene.presets import SDS_CLASSES, preset
+from sdcomp.scene.sample import VARIANT_TINT, sample_scene
+from sdcomp.scene.scene import Role
+
+
+def _placements(config: GeneratorConfig, n: int, role: Role = Role.OBJECT) -> list:
+    return [p for i in range(n) for p in sample_scene(config, i).placements if p.role is role]
+
+
+def test_asset_keys_of_kinds_variants_meshes_and_clutter():
+    assert object_assets("swimmer") == sar.variant_names("swimmer")
+    assert object_assets("boat-03") == ("boat-03",)
+    assert object_assets("bluerov2") == ("bluerov2",)
+    assert object_assets("my/boat.stl") == ("my/boat.stl",)
+    assert clutter_assets("buoy") == tuple(f"clutter:buoy-{v:02d}" for v in range(10))
+    assert clutter_assets("log") == ("clutter:log",)
+    # a variant's clutter atlas has its own file name, beside its object atlas
+    assert clutter_mesh_name("clutter:boat-03") == "clutter-boat-03"
+    assert clutter_mesh_name("clutter:foam") == "foam"
+    assert set(CLUTTER_KINDS) == set(DEFAULT_CLUTTER_KINDS) | set(sar.KINDS)
+
+
+def test_a_kind_object_is_each_of_its_variants_in_a_shade_of_its_own():
+    config = GeneratorConfig(objects=["jetski"], count=20, clutter=0, seed=2)
+    placed = _placements(config, 10)
+    assert {p.asset for p in placed} == set(sar.variant_names("jetski"))
+    lo, hi, jitter = VARIANT_TINT
+    tints = np.array([p.tint for p in placed])
+    assert np.all(tints >= lo * (1 - jitter)) and np.all(tints <= hi * (1 + jitter))
+    assert len({p.tint for p in placed}) == len(placed)  # every one its own
+    assert {p.category_id for p in placed} == {1}
+
+
+def test_weights_set_the_class_proportions():
+    config = GeneratorConfig(objects=[{"mesh": "swimmer", "weight": 3},
+                                      {"mesh": "buoy", "weight": 1}], count=40, clutter=0)
+    counts = Counter(p.category_id for p in _placements(config, 100))
+    share = counts[1] / (counts[1] + counts[2])
+    assert abs(share - 0.75) < 0.03, counts
+
+
+def test_equal_weights_draw_as_without_weights():
+    a = GeneratorConfig(objects=["bluerov2", "bluerov2-heavy"], count="1-5", seed=4)
+    b = replace(a, objects=(ObjectSpec("bluerov2", weight=2.5),
+                            ObjectSpec("bluerov2-heavy", weight=2.5)))
+    for i in range(20):
+        assert sample_scene(a, i) == sample_scene(b, i)
+
+
+def test_one_mesh_objects_draw_the_scenes_they_drew_before_kinds():
+    """(kind, asset, x, y, heading) of the first scene and the seeds drawn last, recorded
+    with sdcomp before the search-and-rescue kinds (main at commit aad2b9a, with the water
+    of issue 19): the BlueROV2's placements and the clutter's places are the same draws;
+    the clutter boat and buoy are now variants of those kinds, chosen by the draw that chose
+    the old ones' paint."""
+    before = [("object", "bluerov2", 7.512362, -0.541531, 123.4787),
+              ("object", "bluerov2", -4.457094, -5.522882, 124.9442),
+              ("clutter", "clutter:buoy", -7.015063, -0.868259, 20.7691),
+              ("clutter", "clutter:buoy", 7.314866, -8.597587, 356.982),
+              ("clutter", "clutter:log", -7.969311, 2.417629, 220.8747)]
+    scene = sample_scene(GeneratorConfig(seed=5, count="2-4", clutter=2.0), 0)
+    now = scene.placements
+    assert len(now) == len(before)
+    for p, (role, asset, x, y, heading) in zip(now, before, strict=True):
+        assert p.role.value == role and p.asset.startswith(asset)
+        assert (round(p.x, 6), round(p.y, 6), round(p.heading, 4)) == (x, y, heading)
+    # the water's last draw (before the placements) and the scene's last (after the
+    # camera's look, blur and quality) in place too
+    assert scene.water.seed == 423409760 and scene.seeds.land == (1181678423, 3)
+
+
+def test_clutter_of_a_kind_is_its_variants_unshaded():
+    config = GeneratorConfig(clutter=6, clutter_kinds=["life_saving_appliances"], seed=1)
+    placed = _placements(config, 10, Role.CLUTTER)
+    assert {p.asset for p in placed} == set(clutter_assets("life_saving_appliances"))
+    assert {p.tint for p in placed} == {(1.0, 1.0, 1.0)}
+    assert {p.category_id for p in placed} == {0}
+
+
+def test_a_kind_is_never_object_and_clutter_in_one_run():
+    # the default clutter list drops the kinds that are objects (a variant counts)
+    assert GeneratorConfig(objects=["boat"]).clutter_kinds == ("buoy", "log", "foam")
+    assert GeneratorConfig(objects=["buoy-03", "boat"]).clutter_kinds == ("log", "foam")
+    assert GeneratorConfig().clutter_kinds == DEFAULT_CLUTTER_KINDS
+    # a list the user gives that names one is refused, saying what to write instead
+    with pytest.raises(SettingError, match=r"clutter_kinds boat is also an --object, "
+                                           r"annotated there: leave it out \(e\.g\. "
+                                           r"clutter_kinds log\)"):
+        GeneratorConfig(objects=["boat-07"], clutter_kinds=["boat", "log"])
+    with pytest.raises(SettingError, match="or set --clutter 0"):
+        GeneratorConfig(objects=["swimmer"], clutter_kinds=["swimmer"])
+    with pytest.raises(SettingError, match="'rock' is unknown; use some of buoy, log"):
+        GeneratorConfig(clutter_kinds=["rock"])
+    # other kinds are fine, and a resolved config reads back to itself
+    c = GeneratorConfig(objects=["swimmer"], clutter_kinds=["jetski", "log"])
+    assert GeneratorConfig.from_mapping(c.to_dict()) == c
+    d = GeneratorConfig(objects=["boat"])
+    assert GeneratorConfig.from_mapping(d.to_dict()) == d
+
+
+def test_weights_are_checked_and_kept_in_config_files():
+    for bad in (0, -1, "x", float("nan"), float("inf"), True, None):
+        with pytest.raises(SettingError, match="weight .* must be a positive number"):
+            ObjectSpec("boat", weight=bad)
+    c = GeneratorConfig(objects=[{"mesh": "boat", "weight": 2}, "buoy"])
+    assert c.to_dict()["objects"] == [{"mesh": "boat", "category": "boat", "weight": 2.0},
+                                      {"mesh": "buoy", "category": "buoy"}]
+    assert GeneratorConfig.from_mapping({"objects": c.to_dict()["objects"]}) == c
+    with pytest.raises(UserError, match="unknown key 'colour'; use mesh, category and weight"):
+        GeneratorConfig(objects=[{"mesh": "boat", "colour": "red"}])
+
+
+def test_seadronessee_preset_has_its_categories_and_distributions():
+    c = GeneratorConfig.from_mapping(preset("seadronessee"))
+    assert [(k["id"], k["name"], k["supercategory"]) for k in c.categories] == [
+        (1, "swimmer", "person"), (2, "boat", "boat"), (3, "jetski", "boat"),
+        (4, "life_saving_appliances", "object"), (5, "buoy", "object")]
+    assert [o.weight for o in c.objects] == [float(n) for _, n in SDS_CLASSES]
+    assert (c.width, c.height) == (3840, 2160)
+    model = c.camera_model()
+    assert abs(model.fx - 2987) < 2 and model.fx == model.fy  # the Mavic 2 Pro's 4K video
+    assert c.pair_pitch and len(c.altitude.values) == len(c.pitch.values) == 100
+    assert min(c.pitch.values) == 15 and float(np.median(c.altitude.values)) == 36
+    assert set(c.clutter_kinds).isdisjoint(sar.KINDS)
+    assert GeneratorConfig().categories[0]["supercategory"] == "object"  # BlueROV2: as before
+
+
+def test_seadronessee_preset_draws_lake_constances_water():
+    """The preset's water is the clear lake SeaDronesSee was filmed on (chlorophyll 1-3
+    mg/m^3, Secchi depth 6-10 m), not ocean blue or a brown river: the coastal type at
+    turbidity 0.2-0.8, deep water but for a sandy bottom in about 10 % of the frames."""
+    c = GeneratorConfig.from_mapping(preset("seadronessee"))
+    waters = [sample_scene(c, i).water for i in range(200)]
+    assert {w.water_type for w in waters} == {"coastal"}
+    chl = np.array([w.chl for w in waters])
+    assert 0.5 <= chl.min() and chl.max() <= 4.0 and 1.0 < float(np.median(chl)) < 2.5
+    assert max(w.tsm for w in waters) < 4.0  # no sediment-laden water
+    shallow = np.mean([w.depth is not None for w in waters])
+    assert 0.04 < shallow < 0.18, shallow
+
+
+def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
+    pairs = [(10, 20), (30, 45), (60, 80), (30, 90)]
+    alts, pitches = [a for a, _ in pairs], [p for _, p in pairs]
+    paired = GeneratorConfig(altitude=alts, pitch=pitches, pair_pitch=True, seed=3)
+    apart = replace(paired, pair_pitch=False)
+    seen = set()
+    for i in range(60):
+        a, b = sample_scene(paired, i), sample_scene(apart, i)
+        seen.add((a.camera.altitude, a.camera.pitch))
+        assert a.camera.heading == b.camera.heading  # the draws after it stay in place
+        # the water is drawn before the placements (its exposure after them, by the look)
+        assert replace(a.water, exposure_target=0.0) == replace(b.water, exposure_target=0.0)
+    assert seen == set(pairs)
+    with pytest.raises(SettingError) as err:
+        GeneratorConfig(altitude=alts, pitch="20-90", pair_pitch=True)
+    assert err.value.as_flag() == ("--pair-pitch needs --altitude and --pitch as lists of one "
+                                   "length (they have 4 and 0 values): give both as lists, "
+                                   "or drop --pair-pitch")
+
+
+def test_no_variant_taller_than_half_the_altitude():
+    """A sailboat (mast 12-16 m above the water) is not drawn under a drone at 10 m: the
+    renderer would scale it for its middle, far too large; at 50 m it is."""
+    tall = {n for n in sar.variant_names("boat") if sar.top_above_water("boat",
+                                                                          int(n[-2:])) > 5}
+    assert tall == {"boat-02", "boat-08"}
+    low = GeneratorConfig(objects=["boat"], altitude=10, count=20, clutter=6,
+                          clutter_kinds=["jetski"], seed=3)
+    assets = {p.asset for p in _placements(low, 20)}
+    assert assets == set(sar.variant_names("boat")) - tall
+    assert tall <= {p.asset for p in _placements(replace(low, altitude=50), 20)}
+    clutter = replace(low, altitude=50, clutter_kinds=("boat",),
+                      objects=(ObjectSpec("jetski"),))
+    tall_clutter = {"clutter:" + n for n in tall}
+    assert tall_clutter <= {p.asset for p in _placements(clutter, 20, Role.CLUTTER)}
+    assert not tall_clutter & {p.asset for p in _placements(replace(clutter, altitude=10), 20,
+                                                            Role.CLUTTER)}
