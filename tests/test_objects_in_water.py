@@ -404,3 +404,29 @@ def test_glitter_switch_keeps_the_mean_glint(sprites_dir):
         da = np.abs(np.diff(a, axis=1)).mean()
         db = np.abs(np.diff(b, axis=1)).mean()
         assert db <= da
+
+
+def test_things_under_way_by_kind_and_the_under_way_factor():
+    """Boats travel at 2-12 m/s about half the time, buoys and logs never; --under-way 0
+    stops everything, and the other draws stay where they are (same placements)."""
+    from sdcomp.scene.objects import UNDER_WAY
+    from sdcomp.scene.sample import sample_scene
+
+    base = {"objects": [{"mesh": "boat", "category": "boat"}], "count": "2",
+            "clutter": 2.0, "clutter_kinds": ["buoy", "log"], "altitude": "40", "n": 60}
+    moving = GeneratorConfig.from_mapping(base)
+    still = GeneratorConfig.from_mapping({**base, "under_way": 0.0})
+    speeds, kinds = [], []
+    for i in range(60):
+        a, b = sample_scene(moving, i), sample_scene(still, i)
+        assert [(p.asset, p.x, p.y) for p in a.placements] == [
+            (p.asset, p.x, p.y) for p in b.placements]
+        assert all(p.speed == 0.0 for p in b.placements)
+        speeds += [p.speed for p in a.placements]
+        kinds += [p.role for p in a.placements]
+    boats = np.array([s for s, r in zip(speeds, kinds, strict=True) if r is Role.OBJECT])
+    others = [s for s, r in zip(speeds, kinds, strict=True) if r is Role.CLUTTER]
+    chance, lo, hi = UNDER_WAY["boat"]
+    assert abs(np.mean(boats > 0) - chance) < 0.15
+    assert boats[boats > 0].min() >= lo and boats.max() <= hi
+    assert others and not any(others)

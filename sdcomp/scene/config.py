@@ -152,6 +152,10 @@ class GeneratorConfig:
                            "m")
     tilt: float = setting(5.0, "float", "largest wave tilt (roll and pitch) of objects, "
                           "degrees", "DEG", 0.0, 30.0, "degrees")
+    under_way: float = setting(1.0, "float", "how often floating things travel, leaving a "
+                               "wake: a factor on each kind's chance (boats 0.5, jet skis "
+                               "0.6, swimmers 0.4, BlueROV2 0.3; 0: all at rest)", "X", 0.0,
+                               2.5)
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")

@@ -27,6 +27,13 @@ DEFAULT_CLUTTER_KINDS = ("buoy", "log", "boat", "foam")
 #: every clutter kind: the defaults, then the other search-and-rescue kinds
 CLUTTER_KINDS = (*DEFAULT_CLUTTER_KINDS,
                  *(k for k in sar.KINDS if k not in DEFAULT_CLUTTER_KINDS))
+#: kind: (chance of being under way, slowest and fastest speed through the water, m/s) of
+#: the kinds that travel (boats under way or at rest, jet skis mostly riding, swimmers
+#: swimming, the BlueROV2 driving on the surface); buoys, appliances, logs, foam and mesh
+#: files drift at rest. Scaled by the config's ``under_way``.
+UNDER_WAY = {"boat": (0.5, 2.0, 12.0), "jetski": (0.6, 3.0, 15.0),
+             "swimmer": (0.4, 0.3, 1.0), "bluerov2": (0.3, 0.3, 1.5),
+             "bluerov2-heavy": (0.3, 0.3, 1.5)}
 #: COCO supercategories of the search-and-rescue kinds (SeaDronesSee's)
 SUPERCATEGORIES = {"swimmer": "person", "boat": "boat", "jetski": "boat",
                    "life_saving_appliances": "object", "buoy": "object"}
@@ -142,3 +149,11 @@ def resolve_clutter_kinds(kinds: tuple[str, ...], object_meshes: list[str]
         raise SettingError("clutter_kinds", f"{{name}} {both[0]} is also an --object, "
                                             f"annotated there: leave it out ({fix})")
     return kinds
+
+
+def under_way(asset: str) -> tuple[float, float, float]:
+    """(chance of being under way, slowest, fastest m/s) of the object or clutter drawn
+    from ``asset`` (:data:`UNDER_WAY` by its kind; (0, 0, 0) for kinds that do not
+    travel)."""
+    name = asset.removeprefix(CLUTTER_PREFIX)
+    return UNDER_WAY.get(library.kind_of(name) or name, (0.0, 0.0, 0.0))

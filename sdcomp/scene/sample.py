@@ -17,7 +17,7 @@ from .camera import CameraModel, CameraPose, ground_point
 from .config import GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
-from .objects import clutter_assets, low_enough, object_assets
+from .objects import clutter_assets, low_enough, object_assets, under_way
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
@@ -204,6 +204,9 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
             asset = assets[int(rng.integers(len(assets)))]
         else:
             tint = _clutter_tint(rng)
+    chance, slow, fast = under_way(asset)
+    moving, pace = rng.random(), rng.random()  # drawn for every object: the draws after stay
+    speed = slow + (fast - slow) * pace if moving < chance * config.under_way else 0.0
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
@@ -219,7 +222,7 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
         if on_land(shore, x, y):
             continue
         return Placement(role, asset, category_id, x, y, heading, float(roll), float(pitch),
-                         float(draft), tint)
+                         float(draft), tint, speed)
     return None
 
 
