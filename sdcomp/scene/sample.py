@@ -55,7 +55,8 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
         shore = Shore(rng.uniform(0, 360), footprint * rng.uniform(0.2, 0.45),
                       int(rng.integers(2**31)))
     hills = int(rng.integers(2**31)) if rng.random() < config.hills else None
-    placements = _placements(rng, config, model, pose, shore)
+    placements = _travel(np.random.default_rng([int(config.seed), int(index), 0x3A4E]),
+                         config, _placements(rng, config, model, pose, shore))
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur)
@@ -66,6 +67,22 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
     return Scene(index, model, pose, water, placements, shore, hills, look, defocus, quality,
                  seeds, config.shadows, config.glitter)
+
+
+def _travel(rng: np.random.Generator, config: GeneratorConfig,
+            placements: tuple[Placement, ...]) -> tuple[Placement, ...]:
+    """``placements`` with their speeds through the water: each travels with its kind's
+    chance (:func:`~sdcomp.scene.objects.under_way`, scaled by ``config.under_way``) at a
+    speed uniform in its kind's range. Two draws per placement from ``rng``, a stream of
+    its own: the scene's other draws are those of a run without speeds."""
+    out = []
+    for p in placements:
+        chance, slow, fast = under_way(p.asset)
+        moving, pace = rng.random(), rng.random()
+        if moving < chance * config.under_way:
+            p = replace(p, speed=slow + (fast - slow) * pace)
+        out.append(p)
+    return tuple(out)
 
 
 def expose(water: WaterParams, look: CameraLook) -> tuple[WaterParams, CameraLook]:
@@ -204,9 +221,6 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
             asset = assets[int(rng.integers(len(assets)))]
         else:
             tint = _clutter_tint(rng)
-    chance, slow, fast = under_way(asset)
-    moving, pace = rng.random(), rng.random()  # drawn for every object: the draws after stay
-    speed = slow + (fast - slow) * pace if moving < chance * config.under_way else 0.0
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
@@ -222,7 +236,7 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
         if on_land(shore, x, y):
             continue
         return Placement(role, asset, category_id, x, y, heading, float(roll), float(pitch),
-                         float(draft), tint, speed)
+                         float(draft), tint)
     return None
 
 
