@@ -136,7 +136,8 @@ class Generator:
         labels, objs = label_map(scene, out.layers)
         amodal = amodal_masks(labels.shape, objs) if rule.amodal else None
         image, labels, amodal, camera = self.compositor.record(scene, out.image, labels, amodal)
-        objects, dropped = measure(labels, objs, rule, amodal, moved="lens" in camera["stages"])
+        objects, dropped = measure(labels, objs, rule, amodal, "lens" in camera["stages"],
+                                   camera.get("zoom", 1.0))
         dropped += scene.count(Role.OBJECT) - len(objs)
         return Frame(image, labels, objects, dropped, scene, camera)
 

@@ -184,3 +184,24 @@ def test_zoom_sheet_has_a_cell_per_object_and_stats_say_constants(tmp_path, spri
     stats = dataset_stats(out)
     assert stats["meta"]["pitch"]["min"] == stats["meta"]["pitch"]["max"] == 90
     assert plot_stats(stats)[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_visibility_compares_areas_after_the_lens(sprites_dir):
+    """The lens magnifies the recorded frame by its zoom (1.00-1.02): an object's visible
+    area, measured after it, is compared with its silhouette magnified likewise, so a whole
+    object in view is about 1, not up to 4 % over (what is left over comes from the local
+    magnification of the distortion and from small objects' pixel rounding, and the record's
+    visibility is capped at 1)."""
+    from sdcomp.annotate.records import coco_annotations
+    from sdcomp.scene.config import GeneratorConfig
+
+    g = Generator(GeneratorConfig(n=40, seed=3, count="3", clutter=0.0, altitude="5-15"),
+                  sprites_dir)
+    ratios, zooms = [], []
+    for i in range(40):
+        f = g.render(i)
+        zooms.append(f.camera["zoom"])
+        ratios += [o.area / o.silhouette_area for o in f.objects if o.silhouette_area >= 300]
+        assert all(0 < a["visibility"] <= 1 for a in coco_annotations(f))
+    assert max(zooms) > 1.01 and len(ratios) > 20
+    assert max(ratios) < 1.035

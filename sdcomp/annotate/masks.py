@@ -128,13 +128,16 @@ def truncated(layer: Layer, shape: tuple[int, int]) -> float:
 
 
 def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
-            amodal: np.ndarray | None, moved: bool) -> tuple[list[Instance], int]:
+            amodal: np.ndarray | None, moved: bool, zoom: float = 1.0
+            ) -> tuple[list[Instance], int]:
     """The annotated objects of a label map (:func:`label_map`, possibly ``moved`` by the
     camera's lens) with their boxes and areas, and how many were dropped: those with fewer
     than ``rule.min_visible_px`` pixels, and those cut by the frame's edge with less than
     ``rule.min_in_frame`` of their silhouette inside it. ``labels`` is renumbered in place
     (kept objects 1..N in order, dropped ones 0); ``amodal`` (K, H, W) bool, when given,
-    goes with its objects."""
+    goes with its objects (moved likewise). ``zoom``: the lens's magnification, which the
+    silhouettes measured on the layers (before the lens) take to be compared with areas
+    measured after it (visibility)."""
     stats = _label_stats(labels, objs, moved)
     out: list[Instance] = []
     relabel = np.zeros(len(objs) + 1, np.uint16)
@@ -145,7 +148,8 @@ def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
         relabel[k + 1] = len(out) + 1
         inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox)
         inst.silhouette_area = (int(np.count_nonzero(amodal[k])) if amodal is not None else
-                                int(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)))
+                                round(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)
+                                      * (zoom * zoom if moved else 1.0)))
         if amodal is not None:
             inst.amodal = amodal[k]
             inst.amodal_area = int(amodal[k].sum())

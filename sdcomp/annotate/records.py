@@ -53,7 +53,7 @@ def _coco_annotation(frame: Frame, inst: Instance) -> dict:
     rec = {"instance_id": inst.instance_id, "category_id": inst.category_id,
            "bbox": [float(v) for v in inst.bbox], "area": inst.area,
            "segmentation": crop_to_rle(crop, x, y, *frame.instances.shape), "iscrowd": 0,
-           "visibility": round(inst.area / inst.silhouette_area, 4)
+           "visibility": round(min(inst.area / inst.silhouette_area, 1.0), 4)
            if inst.silhouette_area else 1.0,
            "pose": pose_of(frame.scene.placements[inst.placement])}
     if inst.amodal is not None:
