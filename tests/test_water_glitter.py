@@ -197,6 +197,23 @@ def test_no_glitter_without_direct_sun(water_textures):
     assert info["glitter_box"] is None and np.array_equal(a, b)
 
 
+def test_glitter_reaches_the_near_rows_of_a_low_view(water_textures):
+    """Looking low (15 degrees) towards the sun, the glitter path runs from the horizon to
+    the frame's bottom edge: near the camera a pixel holds fewer facets and one sparkle is
+    brighter, so the rows there are drawn too (a single threshold, the far rows', cut the
+    path off at a hard line 2/3 of the way down)."""
+    model = CameraModel(width=416, height=416)
+    p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="clear",
+                wind=5.5, sun_elevation=40.0, sun_azimuth=2.0)
+    pose = CameraPose(17.0, 15.0, 27.0)
+    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    x0, y0, x1, y1 = info["glitter_box"]
+    assert y1 == model.height
+    bottom = (a[-40:].astype(int) - b[-40:]).sum(axis=2)
+    assert np.count_nonzero(bottom > 30) > 100  # sparkles in the 40 rows nearest the camera
+
+
 @pytest.mark.parametrize("lam,base,q", [(0.01, 0.1, 0.5), (0.3, 0.2, 0.3), (2.0, 0.05, 0.2),
                                         (0.05, 0.0, 1.0)])
 def test_mean_glint_is_the_expected_clipped_glitter(lam, base, q):

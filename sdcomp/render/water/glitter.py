@@ -104,8 +104,13 @@ def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off
     reach_u = np.maximum(np.abs(ku) - 3.5 * bu, 0)  # best case over |t| <= 3.5
     reach_c = np.maximum(np.abs(kc) - 3.5 * bc, 0)
     best = (logc - (nu + 2) / 2 * np.log1p(reach_u ** 2 + reach_c ** 2)).reshape(gh, gw)
-    box = _glint_box(best, math.log(GLINT_MIN / float(quantum(facets(fp_rows.max())))),
-                     plan.sea, gh, gw)
+    # a sparkle is visible where its count beats the floor of ITS row: near the camera
+    # (small footprints, few facets) one sparkle is brighter, so fewer suffice
+    floor_rows = np.log(GLINT_MIN / quantum(facets(fp_rows)))
+    ch = len(floor_rows) / gh
+    starts = np.minimum((np.arange(gh) * ch).astype(np.int64), len(floor_rows) - 1)
+    floors = np.minimum.reduceat(floor_rows, starts)  # per grid row: its rows' lowest
+    box = _glint_box(best, floors, plan.sea, gh, gw)
     if box is None:
         return None
     x0, y0, x1, y1 = box
@@ -235,10 +240,11 @@ def _glint_table() -> np.ndarray:
     return t
 
 
-def _glint_box(best: np.ndarray, floor: float, grid, gh: int, gw: int):
+def _glint_box(best: np.ndarray, floors: np.ndarray, grid, gh: int, gw: int):
     """Pixel box (x0, y0, x1, y1; rows relative to the sea's first row) of the grid cells
-    (dilated by one) where the best-case log sparkle count exceeds ``floor``, or None."""
-    on = best > floor
+    (dilated by one) where the best-case log sparkle count exceeds its grid row's entry of
+    ``floors`` (gh,), or None."""
+    on = best > floors[:, None]
     if not on.any():
         return None
     ys, xs = np.nonzero(cv2.dilate(on.astype(np.uint8), np.ones((3, 3), np.uint8)))
