@@ -53,7 +53,7 @@ def test_bench_in_memory_416(benchmark, default_generator):
             default_generator.render(next(counter))
 
     benchmark.pedantic(batch, rounds=3, iterations=1)
-    assert _report(benchmark, "memory_416", n) > 50
+    assert _report(benchmark, "memory_416", n) > 30  # 60-67/s here with the water of issue 19
 
 
 def test_bench_disk_416_two_workers(benchmark, default_generator, tmp_path):
