@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ...util.tiles import wrap_window
 from .photometric import Photometric, tone_curve
 from .scale import scaled_noise
 
@@ -44,13 +45,7 @@ def noise_window(tile: np.ndarray, h: int, w: int, oy: int, ox: int) -> np.ndarr
     if h <= nh and w <= nw:
         y, x = oy % (nh - h + 1), ox % (nw - w + 1)
         return tile[y:y + h, x:x + w]
-    out = np.empty((h, w) + tile.shape[2:], tile.dtype)
-    oy, ox = oy % nh, ox % nw
-    for y in range(-oy, h, nh):
-        for x in range(-ox, w, nw):
-            y0, x0, y1, x1 = max(y, 0), max(x, 0), min(y + nh, h), min(x + nw, w)
-            out[y0:y1, x0:x1] = tile[y0 - y:y1 - y, x0 - x:x1 - x]
-    return out
+    return wrap_window(tile, oy, ox, h, w)
 
 
 def noise_sigma(table: Photometric, a: float, b: float, sx: float = 1.0, sy: float = 1.0,

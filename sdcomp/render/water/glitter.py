@@ -8,6 +8,7 @@ import math
 import cv2
 import numpy as np
 
+from ...util.tiles import wrap_window
 from . import optics
 from .base import (
     GLINT_LN0,
@@ -25,7 +26,7 @@ from .coarse import facets, quantum
 from .layers import level_runs, resize_box
 from .optics import luminance
 from .sky import Sky
-from .textures import SLOPE_SCALE, WaterTextures, noise_window
+from .textures import SLOPE_SCALE, WaterTextures
 from .waves import WaveState, layer_weights_at
 
 
@@ -192,7 +193,7 @@ def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off
     if n0 + hh <= nt.shape[0] and n1 + ww <= nt.shape[1]:
         nz = nt[n0:n0 + hh, n1:n1 + ww]
     else:
-        nz = noise_window(nt, n0, n1, hh, ww, scratch("gnoise", (hh, ww), np.float32))
+        nz = wrap_window(nt, n0, n1, hh, ww, scratch("gnoise", (hh, ww), np.float32))
     g = qu  # (reused)
     cv2.remap(_glint_table(), nz, e, cv2.INTER_NEAREST, dst=g,
               borderMode=cv2.BORDER_REPLICATE)

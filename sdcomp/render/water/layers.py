@@ -7,6 +7,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ...util.tiles import wrap_window
 from .base import LAYERS, scratch, tick
 from .geometry import row_geometry
 from .textures import N_LEVELS, N_TILE, WaterTextures, pitch
@@ -158,24 +159,7 @@ def _periodic_crop(tile: np.ndarray, x0: int, y0: int, cw: int, ch: int,
         x0 = min(x0, n + 1 - cw)
         y0 = min(y0, n + 1 - ch)
         return tile[y0:y0 + ch, x0:x0 + cw]
-    return _wrap_window(tile[:n, :n], y0, x0, ch, cw, out)
-
-
-def _wrap_window(tile, y0, x0, h, w, out):
-    """An (h, w) window of a periodic (n, n, ...) tile from (y0, x0), wrapping."""
-    n = tile.shape[0]
-    y = 0
-    while y < h:
-        sy = (y0 + y) % n
-        hh = min(h - y, n - sy)
-        x = 0
-        while x < w:
-            sx = (x0 + x) % n
-            ww = min(w - x, n - sx)
-            out[y:y + hh, x:x + ww] = tile[sy:sy + hh, sx:sx + ww]
-            x += ww
-        y += hh
-    return out
+    return wrap_window(tile[:n, :n], y0, x0, ch, cw, out)
 
 
 def level_runs(levels: np.ndarray):

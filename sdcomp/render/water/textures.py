@@ -293,23 +293,3 @@ def _noise(seed: int) -> np.ndarray:
     c = -np.log10(1.0 - u) * (255.0 / NOISE_DECADES)
     return np.clip(c, 0.0, 255.0).astype(np.float32)
 
-
-def noise_window(noise: np.ndarray, y0: int, x0: int, h: int, w: int,
-                 out: np.ndarray | None = None) -> np.ndarray:
-    """An (h, w) window of the periodic ``noise`` tile starting at (y0, x0), wrapping."""
-    n = noise.shape[0]
-    if out is None:
-        out = np.empty((h, w), noise.dtype)
-    y = 0
-    while y < h:
-        sy = (y0 + y) % n
-        hh = min(h - y, n - sy)
-        x = 0
-        while x < w:
-            sx = (x0 + x) % n
-            ww = min(w - x, n - sx)
-            out[y:y + hh, x:x + ww] = noise[sy:sy + hh, sx:sx + ww]
-            x += ww
-        y += hh
-    return out
-
