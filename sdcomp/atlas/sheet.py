@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from ..util.colour import linear_to_srgb, srgb_to_linear
-from ..util.files import atomic_write_bytes
+from ..util.files import write_png
 from .poses import sun_direction, view_basis
 
 if TYPE_CHECKING:
@@ -82,16 +82,6 @@ def _label(tile: np.ndarray, text: str) -> None:
 def write_contact_sheet(atlas: Atlas, path: str | Path) -> Path:
     """Write :func:`contact_sheet` as a PNG, atomically."""
     return write_png(contact_sheet(atlas), path)
-
-
-def write_png(image: np.ndarray, path: str | Path) -> Path:
-    """Write an (H, W, 3) uint8 RGB image as a PNG, atomically."""
-    path = Path(path)
-    ok, buf = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-    if not ok:
-        raise OSError(f"could not encode {path}")
-    atomic_write_bytes(path, buf.tobytes())
-    return path
 
 
 def shade(albedo: np.ndarray, normal: np.ndarray, sun_cam: np.ndarray,

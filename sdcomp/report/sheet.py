@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import UserError
 from ..io.layout import SPLIT_CHOICES, Dataset, DatasetLayout, Entry, load_dataset
 from ..io.png import decode_png16
-from ..util.files import atomic_write_bytes
+from ..util.files import write_png
 
 SELECT_CHOICES = ("spread", "first", "random")
 MIN_CELL = 32
@@ -320,14 +320,7 @@ def contact_sheet(folder: str | Path, n: int = 24, split: str = "all", columns: 
                   labels)[0]
 
 
-def write_sheet(sheet: np.ndarray, path: str | Path) -> Path:
-    """Write an RGB sheet as a PNG, atomically."""
-    path = Path(path)
-    ok, buf = cv2.imencode(".png", cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
-    if not ok:
-        raise OSError(f"could not encode {path}")
-    atomic_write_bytes(path, buf.tobytes())
-    return path
-
-
 # --------------------------------------------------------------------------- command line
+
+
+write_sheet = write_png  # the sheet's name for it (sdcomp.show exports it)
