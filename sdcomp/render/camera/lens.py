@@ -150,22 +150,24 @@ class LensGrid:
         """(H, W) float32: ``grid`` at every output pixel."""
         return np.ascontiguousarray(self.window(grid, 0, 0, self.w, self.h))
 
+    def points(self, channel: int, x0: int, y0: int, x1: int, y1: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """(x, y) (y1 - y0, x1 - x0) float32 source points of the output window [y0:y1,
+        x0:x1] for ``channel`` (an index into ``src``), clipped to the rendered frame."""
+        mx, my = self.src[channel]
+        return (np.clip(self.window(mx, x0, y0, x1, y1), 0, self.w - 1),
+                np.clip(self.window(my, x0, y0, x1, y1), 0, self.h - 1))
+
     def source(self, channel: int, x0: int, y0: int, x1: int, y1: int
                ) -> tuple[np.ndarray, np.ndarray]:
-        """OpenCV fixed-point maps (CV_16SC2, CV_16UC1) of the output window [y0:y1,
-        x0:x1] for ``channel`` (an index into ``src``): its source points, clipped to the
-        rendered frame, resolved to 1/32 px."""
-        mx, my = self.src[channel]
-        sx = np.clip(self.window(mx, x0, y0, x1, y1), 0, self.w - 1)
-        sy = np.clip(self.window(my, x0, y0, x1, y1), 0, self.h - 1)
-        return cv2.convertMaps(sx, sy, cv2.CV_16SC2)
+        """OpenCV fixed-point maps (CV_16SC2, CV_16UC1) of the output window's
+        :meth:`points` for ``channel``, resolved to 1/32 px."""
+        return cv2.convertMaps(*self.points(channel, x0, y0, x1, y1), cv2.CV_16SC2)
 
     def nearest(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
         """(y1 - y0, x1 - x0, 2) int16 map of the output window to the rendered pixels
         nearest to its green source points."""
-        mx, my = self.src[len(self.src) // 2]
-        sx = np.clip(self.window(mx, x0, y0, x1, y1), 0, self.w - 1)
-        sy = np.clip(self.window(my, x0, y0, x1, y1), 0, self.h - 1)
+        sx, sy = self.points(len(self.src) // 2, x0, y0, x1, y1)
         return cv2.convertMaps(sx, sy, cv2.CV_16SC2, nninterpolation=True)[0]
 
 
