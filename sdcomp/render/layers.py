@@ -328,7 +328,8 @@ def wake_foam(i: int, pl: Placement, view: SpriteView, size_m: float, waterline:
         return None
     track = view.rot[:2, 0] / max(float(np.hypot(*view.rot[:2, 0])), 1e-9)
     jac = view.jac[:, :2]
-    px_per_m = max(float(np.hypot(*(jac @ track))), float(np.hypot(*(jac @ track[::-1]))))
+    across = np.array([-track[1], track[0]])
+    px_per_m = max(float(np.hypot(*(jac @ track))), float(np.hypot(*(jac @ across))))
     made = wake_cover(1.4 * size_m, 0.7 * size_m, pl.speed, 1.0 / max(px_per_m, 1e-6),
                       (scene.water.seed, i, 1))
     if made is None:
