@@ -54,6 +54,7 @@ class Instance:
     amodal: np.ndarray | None = None  # (H, W) bool, only when asked for
     amodal_area: int = 0
     silhouette_area: int = 0  # pixels of the unoccluded in-frame silhouette (visibility)
+    full_area: float = 0.0  # pixels of the whole silhouette, in the frame or out of it
 
 
 @dataclass
@@ -143,13 +144,15 @@ def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
     relabel = np.zeros(len(objs) + 1, np.uint16)
     for k, lay in enumerate(objs):
         area, bbox = stats[k]
-        if area < rule.min_visible_px or truncated(lay, labels.shape) < rule.min_in_frame:
+        inside = truncated(lay, labels.shape)
+        if area < rule.min_visible_px or inside < rule.min_in_frame:
             continue
         relabel[k + 1] = len(out) + 1
         inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox)
         inst.silhouette_area = (int(np.count_nonzero(amodal[k])) if amodal is not None else
                                 round(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)
                                       * (zoom * zoom if moved else 1.0)))
+        inst.full_area = inst.silhouette_area / max(inside, 1e-9)
         if amodal is not None:
             inst.amodal = amodal[k]
             inst.amodal_area = int(amodal[k].sum())

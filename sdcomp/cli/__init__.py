@@ -2,6 +2,7 @@
 
     sdcomp atlas build|info ...   sprite atlases         (= python -m sdcomp.atlas)
     sdcomp generate ...           a dataset folder       (= python -m sdcomp.generate)
+    sdcomp video ...              video sequences        (= python -m sdcomp.video)
     sdcomp show DIR ...           a contact sheet        (= python -m sdcomp.show)
     sdcomp stats DIR ...          dataset statistics     (= python -m sdcomp.stats)
     sdcomp merge DIR... --out D   join shard folders     (= python -m sdcomp.merge)
@@ -34,6 +35,8 @@ COMMANDS: dict[str, tuple[str, str, str, str]] = {
               "build or inspect a mesh's sprite atlas (atlas build, atlas info)"),
     "generate": ("sdcomp.cli.generate", "main", "sdcomp.generate",
                  "generate a dataset: images, masks, COCO and/or YOLO labels"),
+    "video": ("sdcomp.cli.video", "main", "sdcomp.video",
+              "generate video sequences with tracked objects (MOTChallenge, COCO-video)"),
     "show": ("sdcomp.cli.show", "main", "sdcomp.show",
              "draw a contact sheet of a generated dataset"),
     "stats": ("sdcomp.cli.stats", "main", "sdcomp.stats",

@@ -45,25 +45,25 @@ class _ObjectAction(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The generator's parser: how to run (:func:`_add_run_options`), then a flag per
-    config field (:func:`_add_dataset_options`)."""
+    """The generator's parser: how to run (:func:`add_run_options`), then a flag per
+    config field (:func:`add_dataset_options`)."""
     p = Parser(
         prog=prog("generate"),
         description="Generate a synthetic drone-over-water detection dataset: images, "
                     "16-bit instance masks, COCO train/val annotations.",
         epilog="Random options take a value (30), a range (10-50, uniform) or a list "
                "(10,20,30). Presets: " + ", ".join(PRESETS) + ".")
-    _add_run_options(p.add_argument_group("run"))
-    _add_dataset_options(p.add_argument_group("dataset options"))
+    add_run_options(p.add_argument_group("run"))
+    add_dataset_options(p.add_argument_group("dataset options"))
     return p
 
 
-def _add_run_options(run_g: argparse._ArgumentGroup) -> None:
+def add_run_options(run_g: argparse._ArgumentGroup) -> None:
     """Options that say how to run, never what the dataset holds."""
     run_g.add_argument("--out", default="dataset", metavar="DIR",
                        help="output folder (default: %(default)s)")
     run_g.add_argument("--workers", type=int, default=None, metavar="N",
-                       help=f"worker processes (default: all cores, {_cores()} here)")
+                       help=f"worker processes (default: all cores, {cores()} here)")
     run_g.add_argument("--resume", action="store_true",
                        help="continue an interrupted run in --out (same options; default: off)")
     run_g.add_argument("--overwrite", action="store_true",
@@ -95,7 +95,7 @@ def _add_run_options(run_g: argparse._ArgumentGroup) -> None:
                        help="square output size, sets --width and --height (default: 416)")
 
 
-def _add_dataset_options(group: argparse._ArgumentGroup) -> None:
+def add_dataset_options(group: argparse._ArgumentGroup) -> None:
     """A flag per :class:`GeneratorConfig` field, with its metavar, help and default from
     the field's declaration (booleans get --no-..., lists take several values)."""
     defaults = GeneratorConfig()
@@ -129,7 +129,7 @@ def _add_dataset_options(group: argparse._ArgumentGroup) -> None:
                            default=None, help=argparse.SUPPRESS)
 
 
-def _cores() -> int:
+def cores() -> int:
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:
@@ -167,7 +167,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.quiet and args.progress is None:
         args.progress = False
     log.debug("config:\n%s", config.to_toml())
-    workers = args.workers if args.workers is not None else _cores()
+    workers = args.workers if args.workers is not None else cores()
     if workers < 1:
         raise UserError(f"--workers {workers} is out of range: use 1 or more")
     shard = parse_shard(args.shard) if args.shard is not None else None

@@ -52,15 +52,18 @@ class Placement:
 
 @dataclass(frozen=True)
 class Shore:
-    """Land beyond a wavy coastline: points p with p . (cos a, sin a) > distance + wiggle."""
+    """Land beyond a wavy coastline: points p with p . (cos a, sin a) > distance + wiggle;
+    ``along_offset`` (m) shifts the wiggle along the coast (a moving camera's frames)."""
 
     angle: float
     distance: float
     seed: int
+    along_offset: float = 0.0
 
     def wiggle(self, along):
         """Offset (metres) of the coastline from its straight line at ``along`` metres."""
         r = np.random.default_rng(self.seed)
+        along = np.asarray(along) + self.along_offset
         out = np.zeros(np.shape(along), np.float64)
         for wavelength in (60.0, 23.0, 9.0, 3.5):
             phase = r.uniform(0, 2 * math.pi)

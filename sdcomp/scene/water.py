@@ -100,6 +100,9 @@ class WaterParams:
     exposure_target: float = 0.18
     metering: str = "average"
     seed: int = 0
+    origin: tuple[float, float] = (0.0, 0.0)
+    frame_heading: float | None = None
+    time: float | None = None
 
 
 def constituents(water_type: str, turbidity: float) -> tuple[float, float, float]:
