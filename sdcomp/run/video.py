@@ -155,7 +155,9 @@ def _check_same(video: VideoConfig, layout: ClipLayout, shard: tuple[int, int] |
         raise UserError(f"--resume: {layout.root} is not an sdcomp video folder (no valid "
                         f"video.json); use --overwrite or another --out") from None
     old, new = meta.get("config", {}), video.to_dict()
-    diff = [k for k in new if k != "sequences" and old.get(k) != new[k]]
+    old = {**old.pop("generator", {}), **old}
+    new = {**new.pop("generator"), **new}
+    diff = [k for k in new if k not in ("sequences", "n") and old.get(k) != new[k]]
     if diff:
         k = diff[0]
         raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
