@@ -21,9 +21,9 @@ from sdcomp.scene.flight import FLIGHTS, MAX_ACCEL, draw_flight
 from sdcomp.scene.sequence import frame_scene, sample_sequence
 from sdcomp.scene.video import VideoConfig
 
-SPRITES = Path(__file__).resolve().parents[1] / "sprites"
 ARGS = ["--size", "160", "--frames", "16", "--fps", "10", "--seed", "3", "--count", "3-5",
-        "--altitude", "12-20", "--sprites", str(SPRITES), "--quiet"]
+        "--altitude", "12-20", "--quiet"]
+SPRITES: list[Path] = []  # the session's sprite folder (set by the clips fixture)
 
 
 def sdcomp_main(argv: list[str]) -> int:
@@ -32,7 +32,8 @@ def sdcomp_main(argv: list[str]) -> int:
 
 
 def _run(out: Path, *extra: str) -> int:
-    return sdcomp_main(["video", "--out", str(out), *ARGS, *extra])
+    return sdcomp_main(["video", "--out", str(out), "--sprites", str(SPRITES[0]), *ARGS,
+                        *extra])
 
 
 def _hashes(root: Path) -> dict[str, str]:
@@ -41,7 +42,8 @@ def _hashes(root: Path) -> dict[str, str]:
 
 
 @pytest.fixture(scope="module")
-def clips(tmp_path_factory) -> Path:
+def clips(tmp_path_factory, sprites_dir) -> Path:
+    SPRITES[:] = [sprites_dir]
     out = tmp_path_factory.mktemp("v") / "clips"
     assert _run(out, "--sequences", "3", "--flight", "pass", "lawnmower", "hover",
                 "--workers", "1", "--format", "coco,yolo") == 0
@@ -168,7 +170,7 @@ def test_identities_persist_and_never_jump(clips):
             assert len(frames) == len(set(frames))
 
 
-def test_objects_enter_and_leave_a_pass(tmp_path):
+def test_objects_enter_and_leave_a_pass(clips, tmp_path):
     out = tmp_path / "c"
     assert _run(out, "--sequences", "1", "--flight", "pass", "--speed", "12", "--frames",
                 "40", "--workers", "1") == 0
