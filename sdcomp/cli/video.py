@@ -39,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
                epilog="Random options take a value (30), a range (10-50, uniform) or a list "
                       "(10,20,30); per-image options are drawn once per sequence.")
     add_run_options(p.add_argument_group("run"))
+    p.set_defaults(out="clips")
     group = p.add_argument_group("video options")
     defaults = VideoConfig()
     for f in VideoConfig.video_fields():
