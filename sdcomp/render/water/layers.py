@@ -145,21 +145,23 @@ def _maps(levels, t, fwd, xs, world_off, mx, my, rot: dict | None = None) -> Non
 
 
 def _rotation(frame: dict, world_off) -> dict | None:
-    """The camera's axes in the tile frame and the world offset (metres along tile x, y:
-    the per-image hash offset plus the camera's ``origin``) when the tiles are not simply
-    aligned with the camera at the hash offset (a world-fixed frame, or an origin away
-    from 0); None otherwise (the still images' sampling, unchanged)."""
+    """The camera's axes in the tile frame (``m``: (2, 2), camera (right, down or forward)
+    -> tile (x, y)), the camera's ``origin`` in metres along tile x, y and the per-image
+    ``hash`` offset, for views that are not stills (a world-fixed frame, an origin away
+    from 0, or a time: every frame of a video is sampled alike); None for a still image
+    (its sampling, unchanged)."""
     origin = frame.get("origin")
     moved = origin is not None and bool(np.any(np.asarray(origin) != 0.0))
-    if not frame.get("fixed") and not moved:
+    if not frame.get("fixed") and not moved and not frame.get("video"):
         return None
     o = np.zeros(2) if origin is None else np.asarray(origin, np.float64)
     x_ax, y_ax = frame["x"], frame["y"]
     cx, cy = frame["cam_x"], frame["cam_y"]
     m = np.array([[cx @ x_ax, cy @ x_ax], [cx @ y_ax, cy @ y_ax]])  # camera -> tile
-    hsh = np.array([world_off[0], world_off[1]], np.float64)
     org = np.array([o @ x_ax, o @ y_ax])
-    return {"m": m, "off": hsh + org, "hash": hsh, "origin": org}
+    # (oblique rows have no hash offset across: as the still images' maps)
+    return {"m": m, "off": org + np.array([0.0, world_off[1]]), "hash": world_off,
+            "origin": org}
 
 
 def _rotated_maps(p, tt, fwd, xs, rot: dict, mx, my) -> None:
@@ -181,21 +183,27 @@ def _nadir_warp(tile: np.ndarray, plan, alt: float, div: int, p: float, rot: dic
     """Straight down through a rotation: layer pixel (i, j) (the centre of a div x div block
     of image pixels) at ground ``((j + 0.5) div - W/2) alt/fx`` right and ``((i + 0.5) div
     - H/2) alt/fy`` down of the nadir, in texels of ``div`` footprints (one texel per layer
-    pixel, as the crops), plus the world offset in texels of ``p`` metres (the hash part)
-    and of ``div`` footprints (the origin's: the sea moves with the image); one warpAffine
-    with wrap-around."""
+    pixel, as the crops), turned into the tile frame, plus the world offset: the still
+    crop's start (the hash part: the same texels as the crop when nothing turns or moves)
+    and the origin in texels of ``div`` footprints (the sea moves with the image); one
+    warpAffine with wrap-around, bicubic."""
     fpx, fpy = alt / plan.fx, alt / plan.fy
     fp = max(fpx, fpy) * div  # metres per texel
     m = rot["m"]
     sx, sy = div * fpx / fp, div * fpy / fp  # texels per layer pixel along right, down
-    u0, v0 = (0.5 * div - plan.width / 2) * fpx / fp, (0.5 * div - plan.height / 2) * fpy / fp
+    hl, wl = dst.shape[:2]
+    cj, ci = plan.width / (2 * div) - 0.5, plan.height / (2 * div) - 0.5  # image centre
+    n = N_TILE
+    start = []
+    for ax, size in ((0, wl), (1, hl)):
+        x0 = int(rot["hash"][ax] / p) % n
+        start.append(min(x0, n + 1 - size) if wl <= n + 1 and hl <= n + 1 else x0)
     aff = np.empty((2, 3))
     for row in range(2):
         aff[row, 0] = m[row, 0] * sx
         aff[row, 1] = m[row, 1] * sy
-        aff[row, 2] = (m[row, 0] * u0 + m[row, 1] * v0
-                       + np.mod(rot["hash"][row] / p + rot["origin"][row] / fp, N_TILE))
-    n = N_TILE
+        aff[row, 2] = (start[row] + (cj, ci)[row] - m[row, 0] * sx * cj - m[row, 1] * sy * ci
+                       + np.mod(rot["origin"][row] / fp, n))
     cv2.warpAffine(tile[:n, :n], aff, (dst.shape[1], dst.shape[0]), dst=dst,
                    flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP)
 

@@ -104,6 +104,7 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
     frame, levels_rows = _tile_frame(plan, pose, alt, basis, params.wind_dir,
                                      params.frame_heading)
     frame["origin"] = np.asarray(params.origin, np.float64)
+    frame["video"] = params.time is not None
     textures = textures_for(params, textures, frame["downwind"])
     tick("frame")
     sea = sea_terms(plan, basis, alt, params, sky, textures, waves, frame["e_u"],
