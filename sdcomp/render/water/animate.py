@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import threading
+from functools import lru_cache
 
 import numpy as np
 
@@ -57,27 +58,41 @@ def band_split(base: WaterTextures, b: int, angle_deg: float, downwind: float) -
             "omega": omega(k)}
 
 
+@lru_cache(maxsize=128)
+def _level_modes(base: WaterTextures, s: int, level: int, downwind: float) -> tuple:
+    """The time-independent part of :func:`evolved_spectrum` (cached): flat FFT indices
+    (M,) of the level's modes (its bands' indices are disjoint), the factors (M,)
+    complex128 of the forward and backward waves (slope packing, axis turn, half-tile roll
+    folded in) and omega (M,) rad/s."""
+    n = N_TILE
+    angle = SET_ANGLES[s]
+    rot = complex(math.cos(math.radians(angle)), -math.sin(math.radians(angle)))
+    idx, fwd, back, om = [], [], [], []
+    for b in range(level, min(level + LEVEL_BANDS, N_BANDS)):
+        q = 2 ** (level + LEVEL_BANDS - 1 - b)  # FFT index per lattice unit
+        sp = band_split(base, b, angle, downwind)
+        mx, my = sp["mx"], sp["my"]
+        # slopes i m h packed as sx + i sy, turned to (upwind, crosswind), rolled by N/2
+        f = 1j * (mx + 1j * my) * rot * np.where((mx * q) % 2 == 0, 1.0, -1.0)
+        idx.append(((my * q) % n) * n + (mx * q) % n)
+        fwd.append(f * sp["fwd"])
+        back.append(f * sp["back"])
+        om.append(sp["omega"])
+    return (np.concatenate(idx), np.concatenate(fwd), np.concatenate(back),
+            np.concatenate(om))
+
+
 def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
                      downwind: float) -> np.ndarray:
     """(N_TILE, N_TILE) complex64 spectrum of level tile ``level`` of set ``s`` at ``t``
     seconds: its inverse FFT is ``su + i sc`` (upwind and crosswind slopes in the still
     tile's FFT units, columns holding tile x ``c - N/2``: the half-tile roll is a phase
     ``(-1)**kx``)."""
-    n = N_TILE
-    angle = SET_ANGLES[s]
-    spec = np.zeros((n, n), np.complex64)
-    rot = complex(math.cos(math.radians(angle)), -math.sin(math.radians(angle)))
-    for b in range(level, min(level + LEVEL_BANDS, N_BANDS)):
-        q = 2 ** (level + LEVEL_BANDS - 1 - b)  # FFT index per lattice unit
-        sp = band_split(base, b, angle, downwind)
-        mx, my = sp["mx"], sp["my"]
-        ph = np.exp(-1j * sp["omega"] * float(t))
-        h = sp["fwd"] * ph + sp["back"] * np.conj(ph)
-        # slopes i m h packed as sx + i sy, turned to (upwind, crosswind), rolled by N/2
-        roll = np.where((mx * q) % 2 == 0, 1.0, -1.0)
-        coef = 1j * (mx + 1j * my) * h * rot * roll
-        spec[(my * q) % n, (mx * q) % n] += coef.astype(np.complex64)
-    return spec
+    idx, fwd, back, om = _level_modes(base, s, level, 1.0 if downwind >= 0 else -1.0)
+    ph = np.exp(-1j * om * float(t))
+    spec = np.zeros(N_TILE * N_TILE, np.complex64)
+    spec[idx] = fwd * ph + back * np.conj(ph)
+    return spec.reshape(N_TILE, N_TILE)
 
 
 def evolved_tile(base: WaterTextures, s: int, level: int, t: float,
