@@ -69,6 +69,12 @@ class WaterParams:
     Exposure: ``exposure_target`` linear metered luminance (0.18 = mid grey),
     ``metering`` ("average" or "centre").
     ``seed``: per-image offsets into the tiles and noise.
+    Video (defaults: a still image, as before): ``origin`` (2,) world metres (x east, y
+    north) of the point under the camera (scene coordinates stay camera-relative): the sea,
+    its patches and the clouds are sampled at world positions; ``frame_heading`` degrees
+    (counter-clockwise from +x) of the wave tiles' x axis fixed in the world (None: the
+    tiles follow the camera's right axis); ``time`` seconds of the waves' motion (None:
+    frozen tiles; else each wave mode travels at its deep-water gravity-capillary speed).
     """
 
     name: str = "lake"

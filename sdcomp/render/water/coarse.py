@@ -95,7 +95,9 @@ class WaterLight:
 def build_sky(params: WaterParams, textures: WaterTextures) -> Sky:
     """The :class:`Sky` of ``params``."""
     u = uniforms(params.seed, 0x5C1, 2)
-    off = (u[0] * textures.clouds.size, u[1] * textures.clouds.size)
+    ox, oy = params.origin  # world-fixed clouds (and their shadows) for a moving camera
+    off = (u[0] * textures.clouds.size + ox / params.cloud_scale,
+           u[1] * textures.clouds.size + oy / params.cloud_scale)
     return make_sky(params.sky, params.sun_elevation, params.sun_azimuth, params.cloud_cover,
                     textures.clouds, params.cloud_height, params.cloud_scale, off,
                     params.cloud_bright, params.visibility)
@@ -134,9 +136,11 @@ def sea_terms(plan, basis, alt, params: WaterParams, sky: Sky, textures: WaterTe
     d = plan.sea_rays.reshape(-1, 3) @ basis  # (G, 3) world rays
     down = np.maximum(-d[:, 2], 1e-6)
     t = alt / down  # distance
-    gx, gy = d[:, 0] * t, d[:, 1] * t
-    pu = gx * e_u[0] + gy * e_u[1] + world_off[0]  # along the tile axes, metres
-    pc = gx * e_c[0] + gy * e_c[1] + world_off[1]
+    gx, gy = d[:, 0] * t, d[:, 1] * t  # metres from the point under the camera
+    ox, oy = params.origin  # world metres of that point
+    pu = gx * e_u[0] + gy * e_u[1] + (world_off[0] + (ox * e_u[0] + oy * e_u[1]))
+    pc = gx * e_c[0] + gy * e_c[1] + (world_off[1] + (ox * e_c[0] + oy * e_c[1]))
+    wx, wy = gx + ox, gy + oy  # world metres
     prow = grid.pixel_rows()
     lev_rows = levels_rows[prow]
     lev = np.repeat(lev_rows, gw)  # (G,) level tile drawn per pixel
@@ -152,12 +156,12 @@ def sea_terms(plan, basis, alt, params: WaterParams, sky: Sky, textures: WaterTe
     if params.patchiness > 0:
         k = 12.0 / params.patch_scale
         for i, nm in ((1, "f1"), (2, "f2")):
-            fx.append(gx * k + offs[i, 0])
-            fy.append(gy * k + offs[i, 1])
+            fx.append(wx * k + offs[i, 0])
+            fy.append(wy * k + offs[i, 1])
             names.append(nm)
     if params.depth is not None:
-        fx.append(gx / 40.0 + offs[3, 0])
-        fy.append(gy / 40.0 + offs[3, 1])
+        fx.append(wx / 40.0 + offs[3, 0])
+        fy.append(wy / 40.0 + offs[3, 1])
         names.append("depth")
     fields = {}
     if names:
@@ -191,7 +195,7 @@ def sea_terms(plan, basis, alt, params: WaterParams, sky: Sky, textures: WaterTe
     tick("st.long_waves")
     slope = long_uc[:, :1] * e_u[None] + long_uc[:, 1:] * e_c[None]
     if params.swell_height > 0:
-        slope = slope + swell_slopes(params, gx, gy)
+        slope = slope + swell_slopes(params, wx, wy)
     # the water body: patchy constituents, Gordon reflectance, shallow bottom. The patches
     # change ln(R_rs) linearly in the two fields (sensitivities by finite differences of
     # the exact model at the mean constituents: the scene's R_rs needs 3 model evaluations)

@@ -27,6 +27,7 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
     r0 = plan.sea_row0
     hs = h - r0
     s = frame["set"]
+    rot = _rotation(frame, world_off)
     out = {}
     for name, div, off in LAYERS:
         wl, hl = max(1, -(-w // div)), max(1, -(-hs // div))
@@ -35,6 +36,8 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
             lev = int(round(frame["flev"][0])) + off
             if lev >= N_LEVELS:
                 dst[:] = _neutral(wl)
+            elif rot is not None:
+                _nadir_warp(textures.ensure(s, lev), plan, alt, div, pitch(lev), rot, dst)
             else:
                 p = pitch(lev)
                 ox = int(world_off[0] / p) % N_TILE
@@ -49,7 +52,7 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
             fl = np.where(geo["ok"], level_continuous(np.where(geo["ok"], fp, 1.0)), N_LEVELS)
             x = ((np.arange(wl) + 0.5) * (w / wl) - w / 2) / plan.fx
             levels = _remap_layer(dst, textures, s, fl + off, geo["t"], geo["fwd"], x,
-                                  world_off, name, fade=div < 16)
+                                  world_off, name, fade=div < 16, rot=rot)
         out[name + "4"] = dst
         out["levels_" + name] = levels
     return out
@@ -59,7 +62,7 @@ FADE = 0.08  # level units on each side of a level change over which the levels 
 
 
 def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
-                 fade: bool = True) -> np.ndarray:
+                 fade: bool = True, rot: dict | None = None) -> np.ndarray:
     """Fill ``dst`` (rows, cols, 4) with level tiles of set ``s`` sampled through the
     camera: row ``i`` of level ``ceil(flev[i])`` at tile x ``t_i x_j / p + N/2`` (across
     the view, tile columns hold x + N/2) and tile y ``t_i fwd_i / p + oy`` (forward); rows
@@ -73,7 +76,7 @@ def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
     frac = flev - (levels - 1)  # in (0, 1]: position within the level's range
     mx = scratch("mapx" + name, (rows, cols), np.float32)
     my = scratch("mapy" + name, (rows, cols), np.float32)
-    _maps(levels, t, fwd, xs, world_off, mx, my)
+    _maps(levels, t, fwd, xs, world_off, mx, my, rot)
     tick("r.maps")
     for lev, a, b in level_runs(levels):
         if lev >= N_LEVELS:
@@ -94,7 +97,7 @@ def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
         idx = np.flatnonzero(sel)
         ox = scratch("omapx" + name, (len(idx), cols), np.float32)
         oy = scratch("omapy" + name, (len(idx), cols), np.float32)
-        _maps(other[idx], t[idx], fwd[idx], xs, world_off, ox, oy)
+        _maps(other[idx], t[idx], fwd[idx], xs, world_off, ox, oy, rot)
         wo_all = scratch("bw" + name, (len(idx), cols), np.float32)
         wo_all[:] = wts[idx, None]
         wi_all = scratch("bwi" + name, (len(idx), cols), np.float32)
@@ -117,13 +120,18 @@ def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
     return levels
 
 
-def _maps(levels, t, fwd, xs, world_off, mx, my) -> None:
+def _maps(levels, t, fwd, xs, world_off, mx, my, rot: dict | None = None) -> None:
     """Remap coordinates of rows at ``levels`` (see :func:`_remap_layer`) into ``mx``,
     ``my`` (rows, cols) float32; rows wider than twice the tile are wrapped explicitly
-    (slightly wider ones wrap through BORDER_WRAP)."""
+    (slightly wider ones wrap through BORDER_WRAP). With ``rot`` (:func:`_rotation`: a
+    world-fixed frame or a camera away from the world origin) the camera's right and
+    forward axes are turned into the tile frame and the offset is the world position."""
     ok = levels < N_LEVELS
     p = pitch(0) * np.exp2(np.where(ok, levels, 0).astype(np.float64))
     tt = np.where(ok & np.isfinite(t), t, 0.0)
+    if rot is not None:
+        _rotated_maps(p, tt, np.where(ok, fwd, 0.0), xs, rot, mx, my)
+        return
     a = (tt / p).astype(np.float32)
     ty = np.mod(tt * fwd / p + world_off[1] / p, N_TILE).astype(np.float32)
     np.multiply(a[:, None], xs[None, :], out=mx)
@@ -134,6 +142,70 @@ def _maps(levels, t, fwd, xs, world_off, mx, my) -> None:
         blk -= np.floor(blk * np.float32(1.0 / N_TILE)) * np.float32(N_TILE)
         mx[wide] = blk
     my[:] = ty[:, None]
+
+
+def _rotation(frame: dict, world_off) -> dict | None:
+    """The camera's axes in the tile frame (``m``: (2, 2), camera (right, down or forward)
+    -> tile (x, y)), the camera's ``origin`` in metres along tile x, y and the per-image
+    ``hash`` offset, for views that are not stills (a world-fixed frame, an origin away
+    from 0, or a time: every frame of a video is sampled alike); None for a still image
+    (its sampling, unchanged)."""
+    origin = frame.get("origin")
+    moved = origin is not None and bool(np.any(np.asarray(origin) != 0.0))
+    if not frame.get("fixed") and not moved and not frame.get("video"):
+        return None
+    o = np.zeros(2) if origin is None else np.asarray(origin, np.float64)
+    x_ax, y_ax = frame["x"], frame["y"]
+    cx, cy = frame["cam_x"], frame["cam_y"]
+    m = np.array([[cx @ x_ax, cy @ x_ax], [cx @ y_ax, cy @ y_ax]])  # camera -> tile
+    org = np.array([o @ x_ax, o @ y_ax])
+    # (oblique rows have no hash offset across: as the still images' maps)
+    return {"m": m, "off": org + np.array([0.0, world_off[1]]), "hash": world_off,
+            "origin": org}
+
+
+def _rotated_maps(p, tt, fwd, xs, rot: dict, mx, my) -> None:
+    """Oblique maps through a rotation: a row's ground point at ``t x`` metres right and
+    ``t fwd`` forward of the camera's nadir is at ``m @ (right, forward) + off`` metres in
+    the tile frame; coordinates (texels, column c holding x = c - N/2) reduced mod N."""
+    m, off = rot["m"], rot["off"]
+    a = tt / p  # (rows,) texels per unit image x
+    f = tt * fwd / p  # texels forward
+    for out, row, half in ((mx, 0, N_TILE // 2), (my, 1, 0)):
+        base = np.mod(f * m[row, 1] + off[row] / p + half, N_TILE).astype(np.float32)
+        np.multiply((a * m[row, 0]).astype(np.float32)[:, None], xs[None, :], out=out)
+        out += base[:, None]
+        np.mod(out, np.float32(N_TILE), out=out)
+
+
+def _nadir_warp(tile: np.ndarray, plan, alt: float, div: int, p: float, rot: dict,
+                dst: np.ndarray) -> None:
+    """Straight down through a rotation: layer pixel (i, j) (the centre of a div x div block
+    of image pixels) at ground ``((j + 0.5) div - W/2) alt/fx`` right and ``((i + 0.5) div
+    - H/2) alt/fy`` down of the nadir, in texels of ``div`` footprints (one texel per layer
+    pixel, as the crops), turned into the tile frame, plus the world offset: the still
+    crop's start (the hash part: the same texels as the crop when nothing turns or moves)
+    and the origin in texels of ``div`` footprints (the sea moves with the image); one
+    warpAffine with wrap-around, bicubic."""
+    fpx, fpy = alt / plan.fx, alt / plan.fy
+    fp = max(fpx, fpy) * div  # metres per texel
+    m = rot["m"]
+    sx, sy = div * fpx / fp, div * fpy / fp  # texels per layer pixel along right, down
+    hl, wl = dst.shape[:2]
+    cj, ci = plan.width / (2 * div) - 0.5, plan.height / (2 * div) - 0.5  # image centre
+    n = N_TILE
+    start = []
+    for ax, size in ((0, wl), (1, hl)):
+        x0 = int(rot["hash"][ax] / p) % n
+        start.append(min(x0, n + 1 - size) if wl <= n + 1 and hl <= n + 1 else x0)
+    aff = np.empty((2, 3))
+    for row in range(2):
+        aff[row, 0] = m[row, 0] * sx
+        aff[row, 1] = m[row, 1] * sy
+        aff[row, 2] = (start[row] + (cj, ci)[row] - m[row, 0] * sx * cj - m[row, 1] * sy * ci
+                       + np.mod(rot["origin"][row] / fp, n))
+    cv2.warpAffine(tile[:n, :n], aff, (dst.shape[1], dst.shape[0]), dst=dst,
+                   flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP)
 
 
 _NEUTRAL: dict = {}

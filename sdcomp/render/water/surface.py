@@ -36,6 +36,7 @@ import numpy as np
 
 from ...scene.camera import CameraModel, CameraPose, camera_basis
 from ...scene.water import WaterParams
+from .animate import textures_for
 from .base import tick, uniforms
 from .coarse import (
     WaterLight,
@@ -93,14 +94,18 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
         raise ValueError(f"a view at pitch {pose.pitch} degrees sees no sea")
     alt = float(pose.altitude)
     basis = camera_basis(pose.pitch, pose.heading)
-    sky = build_sky(params, textures)
+    sky = build_sky(params, textures)  # (clouds: the same in every frame)
     waves = wave_state(params.wind, params.wave_age)
     u = uniforms(params.seed, 0x0FF5E7, 4)
     world_off = np.array([u[0] * 1e4, u[1] * 1e4])
     nn = textures.noise.shape[0]
     span = nn - max(w, h) if max(w, h) < nn else nn
     noise_off = (int(u[2] * span), int(u[3] * span))
-    frame, levels_rows = _tile_frame(plan, pose, alt, basis, params.wind_dir)
+    frame, levels_rows = _tile_frame(plan, pose, alt, basis, params.wind_dir,
+                                     params.frame_heading)
+    frame["origin"] = np.asarray(params.origin, np.float64)
+    frame["video"] = params.time is not None
+    textures = textures_for(params, textures, frame["downwind"])
     tick("frame")
     sea = sea_terms(plan, basis, alt, params, sky, textures, waves, frame["e_u"],
                     frame["e_c"], world_off, levels_rows, frame["flev"], frame["fp"])
@@ -114,14 +119,18 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
 
 
 def _tile_frame(plan: ViewPlan, pose: CameraPose, alt: float, basis: np.ndarray,
-                wind_dir: float) -> tuple[dict, np.ndarray]:
+                wind_dir: float, frame_heading: float | None = None
+                ) -> tuple[dict, np.ndarray]:
     """The texture frame of a view and the wave level drawn per row (H,) int64.
 
     The tiles' x axis runs along the image rows (the camera's right); y runs down the image
-    straight down, forward (away from the camera) in oblique views. The wind is drawn in the
-    direction set nearest to it in that frame (within 22.5 degrees). Straight down, tiles
-    are drawn one texel per pixel: the level nearest the footprint (its waves scaled by at
-    most 2**0.5)."""
+    straight down, forward (away from the camera) in oblique views. With ``frame_heading``
+    (degrees counter-clockwise from world +x) the frame is fixed in the world instead: x at
+    that heading, y 90 degrees counter-clockwise from it (``cam_x``, ``cam_y``: the
+    camera's own axes, which the layers are sampled along). The wind is drawn in the
+    direction set nearest to it in that frame (within 22.5 degrees); ``downwind`` (+1 /
+    -1): whether it blows towards +e_u or -e_u. Straight down, tiles are drawn one texel
+    per pixel: the level nearest the footprint (its waves scaled by at most 2**0.5)."""
     h = plan.height
     row_geo = plan.row_geometry(alt)
     x_axis = basis[0][:2]
@@ -139,6 +148,11 @@ def _tile_frame(plan: ViewPlan, pose: CameraPose, alt: float, basis: np.ndarray,
                         level_continuous(np.where(row_geo["ok"], fp_rows, 1.0)),
                         float(N_LEVELS))
         levels_rows = np.clip(np.ceil(flev - 1e-9), 0, N_LEVELS).astype(np.int64)
+    cam_x, cam_y = x_axis, y_axis
+    if frame_heading is not None:
+        fh = math.radians(frame_heading)
+        x_axis = np.array([math.cos(fh), math.sin(fh)])
+        y_axis = np.array([-math.sin(fh), math.cos(fh)])
     wind = math.radians(wind_dir)
     ws = np.array([math.cos(wind), math.sin(wind)])
     psi = math.degrees(math.atan2(ws @ y_axis, ws @ x_axis)) % 180.0
@@ -148,7 +162,9 @@ def _tile_frame(plan: ViewPlan, pose: CameraPose, alt: float, basis: np.ndarray,
     e_c = -math.sin(th) * x_axis + math.cos(th) * y_axis
     frame = {"set": tile_set, "x": x_axis, "y": y_axis, "e_u": e_u, "e_c": e_c,
              "flev": flev, "fp": np.where(np.isfinite(fp_rows), fp_rows, 1e3),
-             "rows": row_geo}
+             "rows": row_geo, "cam_x": cam_x, "cam_y": cam_y,
+             "fixed": frame_heading is not None,
+             "downwind": 1.0 if float(ws @ e_u) >= 0 else -1.0}
     return frame, levels_rows
 
 
@@ -207,6 +223,7 @@ def draw_water(view: WaterView, textures: WaterTextures, out: np.ndarray | None 
     r0 = plan.sea_row0
     info: dict = {"gain": view.gain, "glitter_box": None}
     sea_img = image[r0:]
+    textures = textures_for(view.params, textures, frame["downwind"])
     layers = wave_layers(plan, textures, view.altitude, frame, view.world_off, frame["rows"])
     tick("textures")
     a_srgb, resp = srgb_terms(sea, view.gain)

@@ -111,16 +111,17 @@ class WaterTextures:
         Deterministic in ``seed`` (tiles built later are the same)."""
         levels = range(0) if levels is None else levels
         mx, my, mm = _lattice()
-        coef = {}
+        coef, raw = {}, {}
         for b in range(N_BANDS):
             rng = np.random.default_rng([int(seed), 0x5EA, b])
             c = rng.standard_normal(mx.size) + 1j * rng.standard_normal(mx.size)
+            raw[b] = c
             coef[b] = _hermitian(c, mx, my)
         tex = cls(int(seed), [[None] * N_LEVELS for _ in SET_ANGLES],
                   [[None] * N_LEVELS for _ in SET_ANGLES],
                   np.empty((N_LEVELS, N_TILE + 1, N_TILE + 1, 2), np.uint8),
                   _clouds(seed), _noise(seed))
-        tex._coef = {"modes": (mx, my, mm), "bands": coef}
+        tex._coef = {"modes": (mx, my, mm), "bands": coef, "raw": raw, "code_sd": {}}
         for lev in range(N_LEVELS):
             tex.uc_stack[lev] = tex.ensure(0, lev)[..., :2]
         for s in sets:
@@ -175,6 +176,7 @@ class WaterTextures:
         su = ca * sx + sa * sy
         sc = ca * sy - sa * sx
         sd = np.array([su.std(), sc.std()], np.float64)
+        self._coef["code_sd"][(s, level)] = sd
         fo = _foam_field(self.seed, level, angle, n)
         # exceedance probability of the (normal) foam field on a log scale over 4 decades
         code = -np.log10(np.maximum(_normal_tail(fo), 1e-6)) * np.float32(255.0 / 4)
@@ -197,6 +199,36 @@ class WaterTextures:
         self.level_sd[s][level] = sd * (n * n) * np.array([
             out[:n, :n, 0].std(), out[:n, :n, 1].std()]) / SLOPE_SCALE
         return out
+
+    def coarse_level(self, level: int) -> np.ndarray:
+        """(N + 1, N + 1, 2) uint8 slope codes (upwind, crosswind) of set 0's level tile
+        ``level``: what the coarse grid samples its long waves from."""
+        return self.uc_stack[level]
+
+    def band_modes(self, b: int, angle_deg: float) -> dict:
+        """The Fourier modes of band ``b`` for the wind at ``angle_deg`` (tile frame):
+        ``mx``, ``my`` (M,) int lattice indices (cycles per band period ``PERIOD_CYCLES
+        BAND0 2**b`` metres along tile x, y), ``raw`` (M,) complex128 the band's random
+        coefficients BEFORE the Hermitian symmetrisation (the height coefficient of the
+        tiles is ``weight (raw(m) + conj(raw(-m))) / 2``), ``weight`` (M,) the height
+        amplitude ``|m|**-2 sqrt(1 + DELTA cos 2 phi)``, ``norm``: the band's slope norm
+        (its slope coefficients are divided by it: unit slope variance), ``neg`` (M,) int:
+        the index of mode ``-m``."""
+        mx, my, _ = self._coef["modes"]
+        _, norm = self._band_spectrum(b, angle_deg)
+        r = PERIOD_CYCLES
+        idx = np.full((2 * r + 1, 2 * r + 1), -1, np.int64)
+        idx[my + r, mx + r] = np.arange(mx.size)
+        return {"mx": mx, "my": my, "raw": self._coef["raw"][b],
+                "weight": self._weights(angle_deg, DELTA, 2.0), "norm": norm,
+                "neg": idx[r - my, r - mx]}
+
+    def code_sd(self, s: int, level: int) -> np.ndarray:
+        """(2,) float64: the standard deviations (upwind, crosswind; FFT units, before the
+        codes) that ``SLOPE_SCALE`` code units stand for in level tile ``level`` of set
+        ``s`` (builds the tile if needed)."""
+        self.ensure(s, level)
+        return self._coef["code_sd"][(s, level)]
 
     def level_share(self, s: int, level: int) -> np.ndarray:
         """(LEVEL_BANDS, 2) upwind/crosswind slope variance of each band of level tile

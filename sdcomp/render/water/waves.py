@@ -126,10 +126,12 @@ def long_waves(textures: WaterTextures, waves: WaveState, pu: np.ndarray, pc: np
     fy = (ty - y0)[..., None]
     ix = x0.astype(np.int64) % n
     iy = y0.astype(np.int64) % n
-    ll = np.broadcast_to(levels[:, None], ix.shape)
-    st = textures.uc_stack
-    v = ((st[ll, iy, ix] * (1 - fx) + st[ll, iy, ix + 1] * fx) * (1 - fy)
-         + (st[ll, iy + 1, ix] * (1 - fx) + st[ll, iy + 1, ix + 1] * fx) * fy)
+    v = np.empty(ix.shape + (2,), np.float64)
+    for i, lv in enumerate(levels):  # (each level's tile: evolved ones are made lazily)
+        st = textures.coarse_level(int(lv))
+        jx, jy, gx, gy = ix[i], iy[i], fx[i], fy[i]
+        v[i] = ((st[jy, jx] * (1 - gx) + st[jy, jx + 1] * gx) * (1 - gy)
+                + (st[jy + 1, jx] * (1 - gx) + st[jy + 1, jx + 1] * gx) * gy)
     t = (v - 128.0) / SLOPE_SCALE  # unit-variance codes, (nl, N, 2)
     use = (levels[:, None] >= first[None, :]) & ((levels[:, None] - first[None, :]) % 2 == 0)
     return (t * sd[:, None, :] * use[..., None]).sum(0)
@@ -154,8 +156,21 @@ def slope_pdf(du, dc, var_u, var_c, nu: float = SLOPE_NU):
     return (1.0 + q) ** (-(nu + 2.0) / 2.0) / (2 * math.pi * np.sqrt(su2 * sc2))
 
 
+GRAVITY = 9.81  # m/s^2
+CAPILLARITY = 7.28e-5  # m^3/s^2: surface tension over density of sea water
+
+
+def omega(k):
+    """Angular frequency (rad/s) of deep-water waves of wavenumber ``k`` (rad/m): the
+    dispersion relation with capillarity, ``omega**2 = g k + (sigma / rho) k**3``."""
+    k = np.asarray(k, np.float64)
+    return np.sqrt(GRAVITY * k + CAPILLARITY * k ** 3)
+
+
 def swell_slopes(params: WaterParams, gx, gy) -> np.ndarray:
-    """World slopes (N, 2) of a narrow-band swell: three long-crested components."""
+    """World slopes (N, 2) of a narrow-band swell at world points ``gx``, ``gy`` (N,)
+    metres: three long-crested components travelling along ``swell_dir`` (at
+    ``params.time`` seconds, when set)."""
     uu = uniforms(params.seed, 0x5E11, 9)
     sigma_h = params.swell_height / 4.0
     amp = sigma_h * math.sqrt(2.0 / 3.0)
@@ -165,6 +180,8 @@ def swell_slopes(params: WaterParams, gx, gy) -> np.ndarray:
         a = math.radians(params.swell_dir - 12 + 24 * uu[3 * i + 1])
         kx, ky = k * math.cos(a), k * math.sin(a)
         ph = 2 * math.pi * uu[3 * i + 2]
+        if params.time is not None:
+            ph -= float(omega(k)) * float(params.time)
         c = np.cos(kx * gx + ky * gy + ph) * amp
         out[:, 0] += -kx * c
         out[:, 1] += -ky * c
