@@ -219,7 +219,7 @@ def frame_scene(seq: Sequence, k: int) -> tuple[Scene, tuple[int, ...]]:
             placements.append(p)
             ids.append(tr.track_id)
     base = seq.scene
-    water = replace(base.water, origin=(cx, cy), time=t, frame_heading=base.camera.heading)
+    water = replace(base.water, origin=(cx, cy), time=t, frame_heading=base.water.wind_dir)
     noise = np.random.default_rng([seq.run_seed, seq.index, k, 0x40153]).integers(
         0, 2**31 - 1, 2)
     look = replace(base.look, noise_oy=int(noise[0]), noise_ox=int(noise[1]))
