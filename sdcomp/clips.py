@@ -95,7 +95,7 @@ class ClipGenerator:
         instances = lut[info.instances]
         t = seq.time(k)
         objects = []
-        for inst, ann in zip(info.objects, coco_annotations(info)):
+        for inst, ann in zip(info.objects, coco_annotations(info), strict=True):
             track = ids[inst.placement]
             tr = next(tr for tr in seq.tracks if tr.track_id == track)
             x, y = tr.position(t)

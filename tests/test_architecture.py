@@ -16,7 +16,8 @@ PACKAGE = ROOT / "sdcomp"
 #: the stages in data-flow order; a module may import its own stage or an earlier one
 STAGES = ("util", "assets", "atlas", "scene", "render", "annotate", "io", "run", "cli")
 #: beside the flow: what each may import (besides util and errors)
-BESIDE = {"pipeline": "annotate", "clips": "annotate", "torch_clips": "run", "report": "io", "torch_datasets": "run", "bench": "cli"}
+BESIDE = {"pipeline": "annotate", "clips": "annotate", "torch_clips": "run",
+          "report": "io", "torch_datasets": "run", "bench": "cli"}
 MAX_LINES = 400
 
 

@@ -136,7 +136,7 @@ def test_gt_agrees_with_the_masks(clips):
             mask = decode_png16(layout.mask(s, k).read_bytes())
             rows = gt[gt[:, 0] == k + 1]
             assert sorted(rows[:, 1].astype(int)) == sorted(set(np.unique(mask)) - {0})
-            for f, tid, left, top, w, h, conf, cls, vis in rows:
+            for _, tid, left, top, w, h, conf, cls, vis in rows:
                 ys, xs = np.nonzero(mask == tid)
                 assert (xs.min() + 1, ys.min() + 1) == (left, top)
                 assert (xs.max() - xs.min() + 1, ys.max() - ys.min() + 1) == (w, h)
@@ -156,7 +156,7 @@ def test_identities_persist_and_never_jump(clips):
         for tid in np.unique(gt[:, 1]):
             rows = gt[gt[:, 1] == tid]
             frames = rows[:, 0].astype(int)
-            for a, b in zip(rows[:-1], rows[1:]):
+            for a, b in zip(rows[:-1], rows[1:], strict=True):
                 if b[0] != a[0] + 1:
                     continue
                 m = flight[int(a[0]) - 1]

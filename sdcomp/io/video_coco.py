@@ -21,7 +21,9 @@ def sequence_part(s: int, video: dict, frames: Iterable[tuple[int, dict, list[di
     """The COCO-video part of sequence ``s``: ``video`` (its entry: name, width, height,
     fps, length, ...) and (frame from 0, image entry, objects) for each frame; objects as
     :class:`~sdcomp.clips.VideoFrame` gives them."""
-    images, anns, tracks = [], [], {}
+    images: list[dict] = []
+    anns: list[dict] = []
+    tracks: dict[int, int] = {}
     for k, image, objects in frames:
         image_id = s * FRAME_STRIDE + k + 1
         images.append(dict(image, id=image_id, video_id=s + 1, frame_id=k))

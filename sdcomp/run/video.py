@@ -18,7 +18,7 @@ import math
 import multiprocessing as mp
 import shutil
 import sys
-from collections.abc import Iterator
+from collections.abc import Generator as Generator_
 from contextlib import closing
 from pathlib import Path
 from typing import Any
@@ -168,7 +168,8 @@ def _check_same(video: VideoConfig, layout: ClipLayout, shard: tuple[int, int] |
                         f"not {want}; resume it as it was made, or use --overwrite")
 
 
-def _results(clips: ClipGenerator, tasks: list, options: RunOptions) -> Iterator[list[dict]]:
+def _results(clips: ClipGenerator, tasks: list, options: RunOptions
+             ) -> Generator_[list[dict], None, None]:
     """Records per task, in order, from this process or a pool of workers."""
     if options.workers <= 1 or len(tasks) <= 1:
         for t in tasks:
@@ -248,14 +249,17 @@ def write_mp4(layout: ClipLayout, s: int, video: VideoConfig) -> Path:
     config = video.generator
     dest = layout.mp4(s)
     tmp = dest.with_name(f".{dest.stem}.tmp.mp4")
-    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(video.fps),
+    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*"mp4v"), float(video.fps),
                              (config.width, config.height))
     if not writer.isOpened():
         raise UserError(f"--mp4: OpenCV cannot write {dest} here (no MP4 encoder in this "
                         f"OpenCV build); drop --mp4")
     try:
         for k in range(video.frames):
-            frame = cv2.imread(str(layout.image(s, k, config.image_format)), cv2.IMREAD_COLOR)
+            path = layout.image(s, k, config.image_format)
+            frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if frame is None:
+                raise UserError(f"--mp4: cannot read {path} back; run again with --overwrite")
             writer.write(frame)
     finally:
         writer.release()

@@ -49,18 +49,17 @@ class Wander:
                    tuple(float(2 * math.pi / p) for p in periods),
                    tuple(float(p) for p in rng.uniform(0, 2 * math.pi, 3)))
 
-    def at(self, t: np.ndarray) -> np.ndarray:
+    def at(self, t: np.ndarray | float) -> np.ndarray:
         """The signal at times ``t`` (seconds, any shape)."""
         t = np.asarray(t, np.float64)
-        return sum((a * np.sin(w * t + p) for a, w, p in zip(self.amp, self.omega, self.phase)),
-                   np.zeros_like(t))
+        terms = zip(self.amp, self.omega, self.phase, strict=True)
+        return sum((a * np.sin(w * t + p) for a, w, p in terms), np.zeros_like(t))
 
-    def rate(self, t: np.ndarray) -> np.ndarray:
+    def rate(self, t: np.ndarray | float) -> np.ndarray:
         """Its time derivative at ``t`` (units per second)."""
         t = np.asarray(t, np.float64)
-        return sum((a * w * np.cos(w * t + p) for a, w, p in zip(self.amp, self.omega,
-                                                                  self.phase)),
-                   np.zeros_like(t))
+        terms = zip(self.amp, self.omega, self.phase, strict=True)
+        return sum((a * w * np.cos(w * t + p) for a, w, p in terms), np.zeros_like(t))
 
 
 def _safe_period(amplitude: float, period: float) -> float:

@@ -149,9 +149,11 @@ def sample_sequence(video: VideoConfig, s: int, model: CameraModel | None = None
     return Sequence(s, still, flight, numbered, video.fps, video.frames, config.seed)
 
 
-def _track(rng: np.random.Generator, p: Placement, t: float, drift: tuple[float, float], wave_period: float, tilt: float) -> Track:
-    """The track of placement ``p`` (camera-relative at time ``t`` = world, for the first
-    view) drawn from ``rng``: sway, yaw wander and bobbing; a fixed number of draws."""
+def _track(rng: np.random.Generator, p: Placement, t: float, drift: tuple[float, float],
+           wave_period: float, tilt: float) -> Track:
+    """The track of placement ``p`` (at world ``p.x``, ``p.y`` at time ``t`` seconds)
+    drawn from ``rng``: drift (m/s), sway, yaw wander and bobbing with waves of
+    ``wave_period`` seconds and tilts up to ``tilt`` degrees; a fixed number of draws."""
     sway = Wander.draw(rng, 0.15 + 0.3 * p.speed, 10.0 + 4.0 * p.speed)
     yaw = Wander.draw(rng, 12.0, 25.0)
     roll = Wander.draw(rng, tilt, wave_period)

@@ -29,6 +29,7 @@ import math
 import threading
 from functools import lru_cache
 
+import cv2
 import numpy as np
 
 from ...scene.water import WaterParams
@@ -36,6 +37,7 @@ from .spectrum import BAND0, N_BANDS
 from .textures import LEVEL_BANDS, N_TILE, PERIOD_CYCLES, SET_ANGLES, SLOPE_SCALE, WaterTextures
 from .waves import omega
 
+_LOCK = threading.Lock()
 GAMMA = 0.6  # downwind bias of the travelling waves: amplitude sqrt(1 + GAMMA cos phi)
 
 
@@ -63,7 +65,7 @@ def _level_modes(base: WaterTextures, s: int, level: int, downwind: float) -> tu
     """The time-independent part of :func:`evolved_spectrum` (cached): flat FFT indices
     (M,) of the level's modes (its bands' indices are disjoint), the factors (M,)
     complex128 of the forward and backward waves (slope packing, axis turn, half-tile roll
-    folded in) and omega (M,) rad/s."""
+    folded in), omega (M,) rad/s and the spectrum's non-zero rows (sorted int array)."""
     n = N_TILE
     angle = SET_ANGLES[s]
     rot = complex(math.cos(math.radians(angle)), -math.sin(math.radians(angle)))
@@ -78,8 +80,10 @@ def _level_modes(base: WaterTextures, s: int, level: int, downwind: float) -> tu
         fwd.append(f * sp["fwd"])
         back.append(f * sp["back"])
         om.append(sp["omega"])
-    return (np.concatenate(idx), np.concatenate(fwd), np.concatenate(back),
-            np.concatenate(om))
+    flat = np.concatenate(idx)
+    ky = flat // n
+    rows = np.unique(ky)  # the spectrum's non-zero rows (low wavenumbers only)
+    return flat, np.concatenate(fwd), np.concatenate(back), np.concatenate(om), rows
 
 
 def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
@@ -88,7 +92,7 @@ def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
     seconds: its inverse FFT is ``su + i sc`` (upwind and crosswind slopes in the still
     tile's FFT units, columns holding tile x ``c - N/2``: the half-tile roll is a phase
     ``(-1)**kx``)."""
-    idx, fwd, back, om = _level_modes(base, s, level, 1.0 if downwind >= 0 else -1.0)
+    idx, fwd, back, om, _ = _level_modes(base, s, level, 1.0 if downwind >= 0 else -1.0)
     ph = np.exp(-1j * om * float(t))
     spec = np.zeros(N_TILE * N_TILE, np.complex64)
     spec[idx] = fwd * ph + back * np.conj(ph)
@@ -98,21 +102,63 @@ def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
 def evolved_tile(base: WaterTextures, s: int, level: int, t: float,
                  downwind: float) -> np.ndarray:
     """(N + 1, N + 1, 4) uint8 level tile ``level`` of set ``s`` at ``t`` seconds, coded as
-    the still tile (same code scale; grain and foam channels copied from it)."""
+    the still tile (same code scale; grain and foam channels
+    copied from it). The inverse FFT transforms along rows only the spectrum's non-zero
+    rows (its modes are long waves of the tile: a third fewer 1-D transforms)."""
     n = N_TILE
     still = base.ensure(s, level)
     sd = base.code_sd(s, level)
-    f = np.fft.ifft2(evolved_spectrum(base, s, level, t, downwind))
-    out = np.empty_like(still)
-    out[..., 2:] = still[..., 2:]
-    for ch in range(2):
-        part = f.real if ch == 0 else f.imag
-        np.clip(part * np.float32(SLOPE_SCALE / sd[ch]) + np.float32(128.5), 0, 255,
-                out=part)
-        out[:n, :n, ch] = part
-    out[n, :n, :2] = out[0, :n, :2]
-    out[:, n, :2] = out[:, 0, :2]
-    return out
+    sign = 1.0 if downwind >= 0 else -1.0
+    rows = _level_modes(base, s, level, sign)[4]
+    spec = evolved_spectrum(base, s, level, t, downwind)
+    part = np.zeros((n, n), np.complex64)
+    part[rows] = np.fft.ifft(spec[rows], axis=1)
+    f = np.fft.ifft(part, axis=0).astype(np.complex64, copy=False)
+    two = f.view(np.float32).reshape(n, n, 2)  # (upwind, crosswind) slopes, interleaved
+    m = np.array([[SLOPE_SCALE / float(sd[0]), 0.0, 128.5],
+                  [0.0, SLOPE_SCALE / float(sd[1]), 128.5]], np.float32)
+    codes = np.clip(cv2.transform(two, m), 0, 255).astype(np.uint8)
+    # channels 0-1 as one 16-bit word beside the still tile's channels 2-3 (little-endian
+    # uint32 per texel: a strided byte copy would cost more than the FFT)
+    words = still.view(np.uint32)[..., 0] & np.uint32(0xFFFF0000)
+    words[:n, :n] |= codes.view(np.uint16)[..., 0]
+    words[n, :] = words[0, :]
+    words[:, n] = words[:, 0]
+    return words.view(np.uint8).reshape(n + 1, n + 1, 4)
+
+
+#: a level's tiles are evolved at multiples of this fraction of the period of its shortest
+#: wave (phase error at most 1/64 of a cycle): slow long waves are reused across frames
+TIME_STEP_PERIODS = 1.0 / 32.0
+
+
+def level_time(level: int, t: float) -> float:
+    """The time (seconds) level ``level``'s tile is evolved to for a frame at ``t``: ``t``
+    rounded down to a multiple of :data:`TIME_STEP_PERIODS` periods of the level's
+    shortest wave (wavelength ``BAND0 2**level``)."""
+    k = 2 * math.pi / (BAND0 * 2.0 ** level)
+    step = TIME_STEP_PERIODS * 2 * math.pi / float(omega(np.array([k]))[0])
+    return math.floor(float(t) / step) * step
+
+
+_TILES: dict[tuple, np.ndarray] = {}  # (base id, set, level, time, sign) -> tile, LRU
+_TILES_SIZE = 24
+
+
+def tile_at(base: WaterTextures, s: int, level: int, t: float, downwind: float
+            ) -> np.ndarray:
+    """:func:`evolved_tile` at :func:`level_time` (kept among the last ``_TILES_SIZE``
+    tiles of this process, so consecutive frames share the slow levels' tiles)."""
+    key = (id(base), s, level, level_time(level, t), 1.0 if downwind >= 0 else -1.0)
+    with _LOCK:
+        tile = _TILES.pop(key, None)
+    if tile is None:
+        tile = evolved_tile(base, s, level, key[3], downwind)
+    with _LOCK:
+        _TILES[key] = tile
+        while len(_TILES) > _TILES_SIZE:
+            del _TILES[next(iter(_TILES))]
+    return tile
 
 
 class AnimatedTextures:
@@ -151,8 +197,8 @@ class AnimatedTextures:
         """(N + 1, N + 1, 4) uint8 level tile ``level`` of set ``s`` at this time."""
         tile = self._tiles.get((s, level))
         if tile is None:
-            tile = self._tiles[(s, level)] = evolved_tile(self.base, s, level, self.time,
-                                                          self.downwind)
+            tile = self._tiles[(s, level)] = tile_at(self.base, s, level, self.time,
+                                                     self.downwind)
         return tile
 
     def coarse_level(self, level: int) -> np.ndarray:
@@ -162,7 +208,6 @@ class AnimatedTextures:
 
 _CACHE: list[AnimatedTextures] = []
 _CACHE_SIZE = 2
-_LOCK = threading.Lock()
 
 
 def textures_for(params: WaterParams, base: WaterTextures, downwind: float = 1.0):
