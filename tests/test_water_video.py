@@ -171,3 +171,45 @@ def test_more_energy_travels_downwind(tex):
     kx = np.broadcast_to(f[None, :], a.shape)  # set 0: the wind along tile +x
     e = np.abs(a) ** 2
     assert e[kx > 0].sum() > 2.0 * e[kx < 0].sum()
+
+
+def test_video_clouds_drift_with_the_wind_aloft():
+    """A video's clouds (and their shadows) move over the sea at CLOUD_WIND x the wind,
+    veered by CLOUD_VEER; without time they stay where the still's hash puts them."""
+    import math
+    from dataclasses import replace as _replace
+
+    from sdcomp.render.water.coarse import CLOUD_VEER, CLOUD_WIND, build_sky
+    from sdcomp.render.water.textures import WaterTextures
+    from sdcomp.scene.water import WaterParams
+
+    tex = WaterTextures.build(3)
+    p = WaterParams(sky="broken", cloud_cover=0.5, wind=6.0, wind_dir=30.0, seed=9,
+                    cloud_scale=10.0)
+    still = np.array(build_sky(p, tex).cloud_offset)
+    at0 = np.array(build_sky(_replace(p, time=0.0), tex).cloud_offset)
+    at10 = np.array(build_sky(_replace(p, time=10.0), tex).cloud_offset)
+    assert np.allclose(still, at0)
+    a = math.radians(30.0 + CLOUD_VEER)
+    moved = CLOUD_WIND * 6.0 * 10.0 / 10.0  # texels of 10 m in 10 s
+    assert np.allclose(at0 - at10, [moved * math.cos(a), moved * math.sin(a)])
+
+
+def test_video_sparkles_are_drawn_anew_each_frame():
+    """The glitter noise window changes from frame to frame of a video (facets live for
+    tens of milliseconds) and is a pure function of (seed, time)."""
+    from dataclasses import replace as _replace
+
+    from sdcomp.render.water.surface import view_water
+    from sdcomp.render.water.textures import WaterTextures
+    from sdcomp.scene.camera import CameraModel, CameraPose
+    from sdcomp.scene.water import WaterParams
+
+    tex = WaterTextures.build(3)
+    model = CameraModel(width=160, height=160)
+    pose = CameraPose(20.0, 90.0, 0.0)
+    p = WaterParams(seed=4, frame_heading=0.0)
+    offs = [view_water(model, pose, _replace(p, time=k / 30), tex).noise_off
+            for k in range(4)]
+    assert len(set(offs)) == 4
+    assert view_water(model, pose, _replace(p, time=2 / 30), tex).noise_off == offs[2]

@@ -92,10 +92,21 @@ class WaterLight:
         return sun, np.asarray(l_w, np.float32)
 
 
+#: the wind at cloud height over the surface wind, and how far it veers (degrees
+#: counter-clockwise): a video's clouds and their shadows drift at this speed
+CLOUD_WIND = 2.0
+CLOUD_VEER = 15.0
+
+
 def build_sky(params: WaterParams, textures: WaterTextures) -> Sky:
-    """The :class:`Sky` of ``params``."""
+    """The :class:`Sky` of ``params``: clouds fixed in the world where it moves (its
+    ``origin``), drifting with the wind aloft over its ``time``."""
     u = uniforms(params.seed, 0x5C1, 2)
     ox, oy = params.origin  # world-fixed clouds (and their shadows) for a moving camera
+    if params.time:  # carried by the wind aloft: stronger and veered from the surface's
+        aloft = math.radians(params.wind_dir + CLOUD_VEER)
+        ox -= CLOUD_WIND * params.wind * math.cos(aloft) * params.time
+        oy -= CLOUD_WIND * params.wind * math.sin(aloft) * params.time
     off = (u[0] * textures.clouds.size + ox / params.cloud_scale,
            u[1] * textures.clouds.size + oy / params.cloud_scale)
     return make_sky(params.sky, params.sun_elevation, params.sun_azimuth, params.cloud_cover,

@@ -94,12 +94,15 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
         raise ValueError(f"a view at pitch {pose.pitch} degrees sees no sea")
     alt = float(pose.altitude)
     basis = camera_basis(pose.pitch, pose.heading)
-    sky = build_sky(params, textures)  # (clouds: the same in every frame)
+    sky = build_sky(params, textures)  # (clouds drift with the wind aloft in a video)
     waves = wave_state(params.wind, params.wave_age)
     u = uniforms(params.seed, 0x0FF5E7, 4)
     world_off = np.array([u[0] * 1e4, u[1] * 1e4])
     nn = textures.noise.shape[0]
     span = nn - max(w, h) if max(w, h) < nn else nn
+    if params.time is not None:  # sparkles are facets of capillaries that live for
+        # tens of milliseconds: a video's frames draw them anew (a window per millisecond)
+        u = u[:2] + uniforms(params.seed, 0x0FF5E7 + 1 + int(round(params.time * 1000)), 2)
     noise_off = (int(u[2] * span), int(u[3] * span))
     frame, levels_rows = _tile_frame(plan, pose, alt, basis, params.wind_dir,
                                      params.frame_heading)
