@@ -287,3 +287,19 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, flag, value,
     assert code == 2 and len(err.splitlines()) == 1 and words in err
     assert "Traceback" not in err
     assert not out.exists()
+
+
+def test_shards_merge_to_the_same_bytes(clips, tmp_path):
+    common = ["--sequences", "3", "--flight", "pass", "lawnmower", "hover", "--workers", "1",
+              "--format", "coco,yolo"]
+    for k in (1, 0):
+        assert _run(tmp_path / f"s{k}", *common, "--shard", f"{k}/2") == 0
+    meta = json.loads((tmp_path / "s1" / "video.json").read_text())
+    assert meta["shard"] == "1/2" and meta["counts"]["sequences"] < 3
+    merged = tmp_path / "merged"
+    assert sdcomp_main(["merge", str(tmp_path / "s0"), str(tmp_path / "s1"), "--out",
+                        str(merged)]) == 0
+    assert _hashes(merged) == _hashes(clips)
+    # a missing shard is one line, and nothing is written
+    assert sdcomp_main(["merge", str(tmp_path / "s0"), "--out", str(tmp_path / "m2")]) == 2
+    assert not (tmp_path / "m2").exists()

@@ -120,7 +120,7 @@ def check_shards(shards: Sequence[Shard]) -> GeneratorConfig:
     return config
 
 
-def _place(src: Path, dst: Path) -> None:
+def place_file(src: Path, dst: Path) -> None:
     """Put ``src``'s bytes at ``dst`` (a hard link, else a copy) through a temporary name."""
     tmp = dst.with_name(f".{dst.name}.{os.getpid()}.tmp")
     tmp.unlink(missing_ok=True)
@@ -169,7 +169,7 @@ def merge(folders: Sequence[str | Path], out: str | Path, *, overwrite: bool = F
                 with open(s.folder / "records.jsonl", "rb") as src:
                     for i in shard_range(config.n, s.k, s.n):
                         for f in _relative_files(config, i):
-                            _place(s.folder / f, out / f)
+                            place_file(s.folder / f, out / f)
                         src.seek(s.offsets[i])
                         line = src.readline()
                         journal.write(line if line.endswith(b"\n") else line + b"\n")

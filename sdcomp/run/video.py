@@ -192,7 +192,7 @@ def _run(video: VideoConfig, options: RunOptions, clips: ClipGenerator, done: se
     status = "interrupted"
     old_term = on_sigterm()
     try:
-        _write_meta(video, layout, "running", options.shard, sequences)
+        write_video_meta(video, layout, "running", options.shard, sequences)
         current: list[dict] = []
         with closing(_results(clips, tasks, options)) as results:
             for records in results:
@@ -209,7 +209,7 @@ def _run(video: VideoConfig, options: RunOptions, clips: ClipGenerator, done: se
     finally:
         progress.close()
         try:
-            counts = _write_meta(video, layout, status, options.shard, sequences)
+            counts = write_video_meta(video, layout, status, options.shard, sequences)
         finally:
             restore_sigterm(old_term)
         if status == "interrupted":
@@ -267,7 +267,7 @@ def write_mp4(layout: ClipLayout, s: int, video: VideoConfig) -> Path:
     return dest
 
 
-def _write_meta(video: VideoConfig, layout: ClipLayout, status: str,
+def write_video_meta(video: VideoConfig, layout: ClipLayout, status: str,
                 shard: tuple[int, int] | None, sequences: list[int]) -> dict:
     """The COCO-video file of the finished sequences (in order), data.yaml with --format
     yolo, and video.json; returns the counts."""
