@@ -28,8 +28,6 @@ from .scene.sequence import Sequence, frame_scene, sample_sequence
 from .scene.video import VideoConfig
 
 EARTH_RADIUS = 6_371_000.0  # m: for the GPS-like positions of the flight metadata
-ORIGIN = (47.6715, 9.2706)  # degrees: latitude, longitude of a sequence's start (Lake
-#: Constance, where SeaDronesSee was filmed); VideoFrame.meta offsets it by the flight
 
 
 @dataclass
@@ -115,10 +113,12 @@ class ClipGenerator:
     def frame_meta(self, seq: Sequence, k: int, info: Frame) -> dict:
         """The metadata of frame ``k``: the still's (:func:`image_meta`) with the flight's
         under SeaDronesSee's key names (speeds m/s, DJI headings: degrees clockwise from
-        north), a GPS-like position from :data:`ORIGIN` and the timestamp (ms)."""
+        north), a GPS-like position (the flight's offset from the config's latitude and
+        longitude, by default Lake Constance, where SeaDronesSee was filmed) and the
+        timestamp (ms)."""
         st = seq.camera(k)
         meta = image_meta(info)
-        lat0, lon0 = ORIGIN
+        lat0, lon0 = self.video.latitude, self.video.longitude
         lat = lat0 + math.degrees(float(st.y) / EARTH_RADIUS)
         lon = lon0 + math.degrees(float(st.x) / (EARTH_RADIUS * math.cos(math.radians(lat0))))
         course = math.degrees(math.atan2(float(st.vy), float(st.vx))) if float(

@@ -124,6 +124,9 @@ def test_layout_and_seqinfo(clips):
                     "speed(m/s)", "compass_heading(degrees)", "timestamp"):
             assert key in flight[0]
         assert [m["timestamp"] for m in flight] == [k * 100 for k in range(16)]
+        # GPS-like positions from the default start (Lake Constance) and the flight
+        assert abs(flight[0]["latitude"] - 47.6715) < 1e-4
+        assert abs(flight[0]["longitude"] - 9.2706) < 1e-4
 
 
 def test_gt_agrees_with_the_masks(clips):

@@ -37,6 +37,10 @@ class VideoConfig:
     leeway: float = setting(0.03, "float", "wind drift of floating things as a fraction of "
                             "the wind speed", "F", 0.0, 0.2)
     mp4: bool = setting(False, "bool", "also write an MP4 per sequence (OpenCV's writer)")
+    latitude: float = setting(47.6715, "float", "latitude of where the flights start, "
+                              "degrees (the metadata's GPS positions)", "DEG", -85.0, 85.0)
+    longitude: float = setting(9.2706, "float", "longitude of where the flights start, "
+                               "degrees", "DEG", -180.0, 180.0)
 
     def __post_init__(self) -> None:
         if not isinstance(self.generator, GeneratorConfig):
