@@ -306,3 +306,12 @@ def test_shards_merge_to_the_same_bytes(clips, tmp_path):
     # a missing shard is one line, and nothing is written
     assert sdcomp_main(["merge", str(tmp_path / "s0"), "--out", str(tmp_path / "m2")]) == 2
     assert not (tmp_path / "m2").exists()
+
+
+def test_dask_engine_gives_the_same_bytes(clips, tmp_path):
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "dask"
+    assert _run(out, "--sequences", "3", "--flight", "pass", "lawnmower", "hover",
+                "--workers", "2", "--format", "coco,yolo", "--engine", "dask") == 0
+    assert not (out / ".shards").exists()
+    assert _hashes(out) == _hashes(clips)

@@ -107,9 +107,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     log = setup_logging(args.quiet, args.verbose)
-    if args.engine != "local" or args.scheduler is not None:
-        raise UserError("sdcomp video runs on this machine (--engine local); shard sequences "
-                        "over machines with --shard K/N instead")
+    if args.scheduler is not None and args.engine != "dask":
+        raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
+                        f"dask, or drop --scheduler")
     video = video_from_args(args)
     if args.dump_config:
         sys.stdout.write(dump(video))
@@ -123,7 +123,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     options = RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
                          Path(args.sprites), shard)
     start = time.perf_counter()
-    counts = run_video(video, options)
+    if args.engine == "dask":
+        from ..run.video_dask import run_video_dask  # dask is optional: imported only here
+
+        counts = run_video_dask(video, options, args.scheduler)
+    else:
+        counts = run_video(video, options)
     secs = time.perf_counter() - start
     log.info(f"wrote {counts['sequences']} sequences, {counts['frames']} frames, "
              f"{counts['annotations']} boxes of {counts['tracks']} tracks to {options.out} "

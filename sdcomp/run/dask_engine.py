@@ -55,7 +55,7 @@ def render_shard(config_dict: dict, folder: str, k: int, n: int, sprites: str) -
     return run(config, options, gen=cached_generator(config, sprites))
 
 
-def _local_cluster(local_cluster, workers: int):
+def local_cluster(cluster_class, workers: int):
     """A LocalCluster of ``workers`` single-threaded processes, started without the
     ``MALLOC_TRIM_THRESHOLD_`` that Dask's nanny sets by default: with it glibc hands every
     large array back to the system at once, and rendering runs about 1.6 times slower."""
@@ -64,11 +64,11 @@ def _local_cluster(local_cluster, workers: int):
     env = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {})
     env.pop("MALLOC_TRIM_THRESHOLD_", None)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": env}):
-        return local_cluster(n_workers=workers, threads_per_worker=1, processes=True,
+        return cluster_class(n_workers=workers, threads_per_worker=1, processes=True,
                              dashboard_address=None)
 
 
-def _existing_shards(work: Path) -> int | None:
+def existing_shards(work: Path) -> int | None:
     """N of the shard folders already in ``work`` (a run being resumed), else None."""
     ns = set()
     for p in work.glob("shard-*-of-*") if work.is_dir() else ():
@@ -128,13 +128,13 @@ def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
     old_term = on_sigterm()  # a job scheduler's SIGTERM stops the run like Ctrl-C
     try:
         if scheduler is None:
-            cluster = _local_cluster(LocalCluster, options.workers)
+            cluster = local_cluster(LocalCluster, options.workers)
             client = Client(cluster)
         else:
-            client = _connect(Client, scheduler)
+            client = connect(Client, scheduler)
         with client:
             n_workers = max(1, len(client.scheduler_info().get("workers", {})))
-            n = _existing_shards(work) or shards or min(config.n, SHARDS_PER_WORKER * n_workers)
+            n = existing_shards(work) or shards or min(config.n, SHARDS_PER_WORKER * n_workers)
             work.mkdir(parents=True, exist_ok=True)
             folders = [work / shard_folder(k, n) for k in range(n)]
             failed = _render_shards(client, as_completed, config, options, folders)
@@ -153,7 +153,7 @@ def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
     return counts
 
 
-def _connect(Client, scheduler: str):  # noqa: N803
+def connect(Client, scheduler: str):  # noqa: N803
     """A client of the cluster at ``scheduler``; UserError when it cannot be reached."""
     try:
         return Client(scheduler, timeout=30)

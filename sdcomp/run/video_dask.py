@@ -1,0 +1,137 @@
+"""``sdcomp video --engine dask``: a video run's sequences as shard tasks on a Dask cluster.
+
+As :mod:`sdcomp.run.dask_engine` does for stills: the client splits the sequences into N
+shards and submits one task per shard, each a ``--shard K/N`` video run into
+``OUT/.shards/shard-K-of-N/`` on the shared output path; when all are done they are merged
+into OUT (:mod:`sdcomp.run.video_merge`: the bytes of one local run) and ``OUT/.shards`` is
+removed. ``--resume`` continues each shard from its finished sequences. dask is imported only
+here.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+from ..clips import ClipGenerator
+from ..errors import UserError
+from ..io.clip_layout import ClipLayout
+from ..pipeline import cached_generator
+from ..scene.video import VideoConfig
+from ..util.progress import Progress
+from .dask_engine import SHARDS_PER_WORKER, WORK, connect, existing_shards, local_cluster
+from .options import RunOptions
+from .output import on_sigterm, os_error_message, restore_sigterm
+from .shards import shard_folder, shard_text
+from .video import run_video
+from .video_merge import merge_video, video_config
+
+
+def render_video_shard(video_dict: dict, folder: str, k: int, n: int, sprites: str) -> dict:
+    """A Dask task: make shard ``k`` of ``n`` of the video run ``video_dict`` (its
+    :meth:`VideoConfig.to_dict`) in ``folder``, continuing what an earlier attempt left."""
+    video = video_config({"config": video_dict})
+    out = Path(folder)
+    resume = (out / "video.json").is_file()
+    options = RunOptions(out, workers=1, resume=resume, overwrite=not resume, progress=False,
+                         sprites_dir=Path(sprites), shard=(k, n))
+    clips = ClipGenerator(video, sprites, generator=cached_generator(video.generator, sprites))
+    return run_video(video, options, clips=clips)
+
+
+def run_video_dask(video: VideoConfig, options: RunOptions, scheduler: str | None = None
+                   ) -> dict:
+    """Make the sequences of ``video`` in ``options.out`` on a Dask cluster (at
+    ``scheduler``, else a local one of ``options.workers`` processes); returns the counts."""
+    if options.shard is not None:
+        raise UserError(f"--shard {shard_text(options.shard)} and --engine dask exclude each "
+                        f"other (the Dask engine makes its own shards): drop one")
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise UserError("--engine dask needs dask.distributed: pip install 'sdcomp[dask]', "
+                        "or use --engine local") from None
+    try:
+        ClipGenerator(video, options.sprites_dir, progress=options.progress)  # atlases, once
+        work = _prepare(options)
+        cluster = None
+        old_term = on_sigterm()
+        try:
+            if scheduler is None:
+                cluster = local_cluster(LocalCluster, options.workers)
+                client = Client(cluster)
+            else:
+                client = connect(Client, scheduler)
+            with client:
+                n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+                n = existing_shards(work) or min(video.sequences, SHARDS_PER_WORKER * n_workers)
+                work.mkdir(parents=True, exist_ok=True)
+                folders = [work / shard_folder(k, n) for k in range(n)]
+                _submit(client, as_completed, video, options, folders)
+        finally:
+            restore_sigterm(old_term)
+            if cluster is not None:
+                cluster.close()
+        counts = merge_video(folders, options.out, overwrite=True, remove=True)
+        shutil.rmtree(work, ignore_errors=True)
+        return counts
+    except OSError as e:
+        raise UserError(os_error_message(e, options.out)) from None
+
+
+def _prepare(options: RunOptions) -> Path:
+    """Check or clear OUT; returns OUT/.shards."""
+    out = options.out
+    work = out / WORK
+    if options.resume and options.overwrite:
+        raise UserError("--resume and --overwrite exclude each other; pick one")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} is a file; give a folder")
+    entries = [p for p in out.iterdir() if p.name != WORK] if out.is_dir() else []
+    if options.overwrite:
+        shutil.rmtree(work, ignore_errors=True)
+        layout = ClipLayout(out)
+        for s in layout.sequences():
+            shutil.rmtree(layout.seq(s))
+        for p in (layout.meta, layout.coco, layout.data_yaml):
+            p.unlink(missing_ok=True)
+    elif options.resume and entries and not work.is_dir():
+        raise UserError(f"--resume --engine dask: {out} holds a local run; continue it with "
+                        f"--engine local --resume, or use --overwrite")
+    elif entries and not options.resume:
+        raise UserError(f"output folder {out} is not empty: add --resume to continue the "
+                        f"run that made it, or --overwrite to replace it")
+    return work
+
+
+def _submit(client, as_completed, video: VideoConfig, options: RunOptions,
+            folders: list[Path]) -> None:
+    """One task per shard folder; UserError naming the first failed shard (the others are
+    kept for --resume)."""
+    n, out = len(folders), options.out
+    cfg, sprites = video.to_dict(), str(Path(options.sprites_dir).resolve())
+    futures = {client.submit(render_video_shard, cfg, str(folders[k].resolve()), k, n,
+                             sprites, key=f"sdcomp-video-{k}-of-{n}-{out.resolve()}",
+                             pure=False): k for k in range(n)}
+    bar = Progress(n, "shards", options.progress, unit="shard")
+    failed: list[tuple[int, BaseException]] = []
+    try:
+        for fut in as_completed(list(futures)):
+            if fut.status == "error":
+                failed.append((futures[fut], fut.exception()))
+            elif fut.status != "finished":
+                failed.append((futures[fut], RuntimeError(f"task {fut.status}")))
+            bar.update(1)
+    except BaseException:
+        client.cancel(list(futures))
+        print(f"stopped; the finished shards are kept in {out / WORK}. Continue with the "
+              f"same command and --resume.", file=sys.stderr)
+        raise
+    finally:
+        bar.close()
+    if failed:
+        k, exc = min(failed, key=lambda f: f[0])
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        raise UserError(f"shard {shard_text((k, n))} failed: {msg}; the other shards are kept "
+                        f"in {out / WORK}: re-run the same command with --resume")
