@@ -57,6 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
             group.add_argument(flag, dest=f.name, default=None, metavar=spec.metavar,
                                help=f"{spec.help} (default: {shown})")
     add_dataset_options(p.add_argument_group("image options (as for sdcomp generate)"))
+    for action in p._actions:  # a video's size is --sequences x --frames, not --n
+        if "--n" in action.option_strings:
+            action.help = argparse.SUPPRESS
     return p
 
 

@@ -26,6 +26,7 @@ from typing import Any
 import cv2
 
 from .. import __version__
+from ..annotate import camera_record
 from ..clips import ClipGenerator
 from ..errors import UserError
 from ..io.clip_layout import VIDEO_FORMAT, VIDEO_FORMAT_VERSION, ClipLayout
@@ -65,9 +66,7 @@ def frame_chunks(sequences: list[int], frames: int, workers: int) -> list[tuple[
 
 def render_frames(clips: ClipGenerator, out: str, task: tuple[int, int, int]) -> list[dict]:
     """Render and write frames ``task`` = (s, k0, k1) to ``out``; return their records:
-    k, image entry (file names, size, meta, camera) and objects."""
-    from ..annotate import camera_record
-
+    s, k, image entry (file names, size, meta, camera) and objects."""
     s, k0, k1 = task
     layout = ClipLayout(Path(out))
     config = clips.video.generator
@@ -89,7 +88,7 @@ def render_frames(clips: ClipGenerator, out: str, task: tuple[int, int, int]) ->
         if "yolo" in config.format:
             text = label_text(f.instances, f.objects, seg=config.yolo_seg)
             files.write_file(layout.label(s, k), text.encode())
-        records.append({"k": k, "image": image, "objects": f.objects})
+        records.append({"s": s, "k": k, "image": image, "objects": f.objects})
     return records
 
 
@@ -199,8 +198,7 @@ def _run(video: VideoConfig, options: RunOptions, clips: ClipGenerator, done: se
                 current += records
                 progress.update(len(records))
                 if current and current[-1]["k"] == video.frames - 1:
-                    s = int(records[-1]["image"]["file_name"].split("/")[0].split("-")[-1])
-                    finish_sequence(video, layout, s, current)
+                    finish_sequence(video, layout, current[-1]["s"], current)
                     current = []
         status = "complete"
     except Exception:

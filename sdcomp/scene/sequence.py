@@ -96,7 +96,7 @@ class Track:
 class Sequence:
     """One clip (see the module docstring): its index, the still ``scene`` it starts from
     (water, sky, look, camera model...), its ``flight``, its ``tracks``, ``fps`` and
-    ``frames``, and the water's fixed tile heading (degrees)."""
+    ``frames``, and the run's seed (the per-frame sensor noise windows are drawn from it)."""
 
     index: int
     scene: Scene
