@@ -19,7 +19,7 @@ import cv2
 import pytest
 
 from sdcomp import cli
-from sdcomp.cli import atlas, generate, merge, show, stats
+from sdcomp.cli import atlas, generate, merge, show, stats, video
 from sdcomp.report.stats import dataset_stats, size_class
 from sdcomp.scene.config import GeneratorConfig
 
@@ -70,13 +70,14 @@ def test_missing_optional_command_is_one_clear_line(monkeypatch):
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
-@pytest.mark.parametrize("name", ["generate", "show", "stats", "merge", "atlas build"])
+@pytest.mark.parametrize("name", ["generate", "video", "show", "stats", "merge",
+                                  "atlas build"])
 def test_every_option_shows_its_default(name):
     if name == "atlas build":
         parser = argparse.ArgumentParser(formatter_class=argparse.ArgumentDefaultsHelpFormatter)
         atlas.add_build_arguments(parser)
     else:
-        parser = {"generate": generate, "show": show, "stats": stats,
+        parser = {"generate": generate, "video": video, "show": show, "stats": stats,
                   "merge": merge}[name].build_parser()
     entries = option_entries(parser)
     assert len(entries) >= 3
@@ -84,7 +85,7 @@ def test_every_option_shows_its_default(name):
     assert not missing, f"{name}: options without a default: {missing}"
 
 
-@pytest.mark.parametrize("module", ["generate", "show", "stats", "merge", "atlas"])
+@pytest.mark.parametrize("module", ["generate", "video", "show", "stats", "merge", "atlas"])
 def test_python_m_forms_still_work(module):
     res = subprocess.run([sys.executable, "-m", f"sdcomp.{module}", "--help"], cwd=REPO,
                          capture_output=True, text=True, timeout=120)

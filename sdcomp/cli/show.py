@@ -65,7 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--frames-per-row", type=int, default=None, metavar="N",
                    help="strip columns: N frames evenly spaced over each sequence (default: 6)")
     v.add_argument("--preview", default=None, metavar="GIF|MP4",
-                   help="also write an animated preview of one sequence (.gif or .mp4)")
+                   help="also write an animated preview of one sequence (.gif or .mp4; default: "
+                        "none)")
     v.add_argument("--sequence", type=int, default=None, metavar="S",
                    help="the sequence of --preview, by its folder number (default: the first)")
     return p
