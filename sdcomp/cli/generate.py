@@ -167,15 +167,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.quiet and args.progress is None:
         args.progress = False
     log.debug("config:\n%s", config.to_toml())
-    workers = args.workers if args.workers is not None else cores()
-    if workers < 1:
-        raise UserError(f"--workers {workers} is out of range: use 1 or more")
-    shard = parse_shard(args.shard) if args.shard is not None else None
-    options = RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
-                         Path(args.sprites), shard)
-    if args.scheduler is not None and args.engine != "dask":
-        raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
-                        f"dask, or drop --scheduler")
+    options = run_options(args)
     start = time.perf_counter()
     counts = ENGINES[args.engine](config, options, args.scheduler)
     secs = time.perf_counter() - start
@@ -186,6 +178,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     if warning:
         log.warning(warning)
     return 0
+
+
+def run_options(args: argparse.Namespace) -> RunOptions:
+    """The :class:`RunOptions` of parsed run options (:func:`add_run_options`): workers
+    (default: all cores), shard, folders; UserError for a bad --workers, or --scheduler
+    without --engine dask."""
+    workers = args.workers if args.workers is not None else cores()
+    if workers < 1:
+        raise UserError(f"--workers {workers} is out of range: use 1 or more")
+    shard = parse_shard(args.shard) if args.shard is not None else None
+    if args.scheduler is not None and args.engine != "dask":
+        raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
+                        f"dask, or drop --scheduler")
+    return RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
+                      Path(args.sprites), shard)
 
 
 def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:

@@ -13,11 +13,8 @@ import argparse
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 from ..errors import UserError, run_cli
-from ..run.options import RunOptions
-from ..run.shards import parse_shard
 from ..run.video import run_video
 from ..scene.config import GeneratorConfig, load_toml
 from ..scene.params import Param
@@ -25,7 +22,7 @@ from ..scene.settings import setting_of, toml_value
 from ..scene.video import VideoConfig
 from ..util.log import setup_logging
 from . import Parser, prog
-from .generate import add_dataset_options, add_run_options, config_from_args, cores
+from .generate import add_dataset_options, add_run_options, config_from_args, run_options
 
 VIDEO_KEYS = tuple(f.name for f in VideoConfig.video_fields())
 
@@ -110,21 +107,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     log = setup_logging(args.quiet, args.verbose)
-    if args.scheduler is not None and args.engine != "dask":
-        raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
-                        f"dask, or drop --scheduler")
     video = video_from_args(args)
     if args.dump_config:
         sys.stdout.write(dump(video))
         return 0
     if args.quiet and args.progress is None:
         args.progress = False
-    workers = args.workers if args.workers is not None else cores()
-    if workers < 1:
-        raise UserError(f"--workers {workers} is out of range: use 1 or more")
-    shard = parse_shard(args.shard) if args.shard is not None else None
-    options = RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
-                         Path(args.sprites), shard)
+    options = run_options(args)
     start = time.perf_counter()
     if args.engine == "dask":
         from ..run.video_dask import run_video_dask  # dask is optional: imported only here

@@ -97,11 +97,9 @@ def _prepare(config: GeneratorConfig, options: RunOptions) -> tuple[Path, bool]:
     return work, False
 
 
-def run_dask(config: GeneratorConfig, options: RunOptions, scheduler: str | None = None,
-             shards: int | None = None) -> dict:
-    """Generate the dataset of ``config`` into ``options.out`` on a Dask cluster (at
-    ``scheduler``, else a local one of ``options.workers`` processes), in ``shards`` shards
-    (default: 4 per worker, or those of the run being resumed); returns the counts."""
+def dask_modules(options: RunOptions) -> tuple:
+    """(Client, LocalCluster, as_completed) of dask.distributed; UserError when it is not
+    installed, or when ``options`` asks for a shard (the Dask engine makes its own)."""
     if options.shard is not None:
         raise UserError(f"--shard {shard_text(options.shard)} and --engine dask exclude each "
                         f"other (the Dask engine makes its own shards): drop one")
@@ -110,6 +108,15 @@ def run_dask(config: GeneratorConfig, options: RunOptions, scheduler: str | None
     except ImportError:
         raise UserError("--engine dask needs dask.distributed: pip install 'sdcomp[dask]', "
                         "or use --engine local") from None
+    return Client, LocalCluster, as_completed
+
+
+def run_dask(config: GeneratorConfig, options: RunOptions, scheduler: str | None = None,
+             shards: int | None = None) -> dict:
+    """Generate the dataset of ``config`` into ``options.out`` on a Dask cluster (at
+    ``scheduler``, else a local one of ``options.workers`` processes), in ``shards`` shards
+    (default: 4 per worker, or those of the run being resumed); returns the counts."""
+    Client, LocalCluster, as_completed = dask_modules(options)  # noqa: N806
     try:
         return _run(config, options, scheduler, shards, Client, LocalCluster, as_completed)
     except OSError as e:
@@ -137,13 +144,9 @@ def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
             n = existing_shards(work) or shards or min(config.n, SHARDS_PER_WORKER * n_workers)
             work.mkdir(parents=True, exist_ok=True)
             folders = [work / shard_folder(k, n) for k in range(n)]
-            failed = _render_shards(client, as_completed, config, options, folders)
-        if failed:
-            k, exc = min(failed, key=lambda f: f[0])
-            others = f" (and {len(failed) - 1} more shards)" if len(failed) > 1 else ""
-            msg = " ".join(str(exc).split()) or type(exc).__name__
-            raise UserError(f"shard {shard_text((k, n))}{others} failed: {msg}; the other "
-                            f"shards are kept in {work}: re-run the same command with --resume")
+            failed = submit_shards(client, as_completed, render_shard, config.to_dict(),
+                                   options, folders, "sdcomp-shard")
+        check_failed(failed, n, work)
     finally:
         restore_sigterm(old_term)
         if cluster is not None:
@@ -162,14 +165,15 @@ def connect(Client, scheduler: str):  # noqa: N803
                         f"address (tcp://HOST:PORT) and that the scheduler runs") from None
 
 
-def _render_shards(client, as_completed, config: GeneratorConfig, options: RunOptions,
-                   folders: list[Path]) -> list[tuple[int, BaseException]]:
-    """Submit one task per shard folder and wait for them all; returns the failed ones
-    (shard number, exception). Ctrl-C cancels the tasks (the finished shards stay)."""
+def submit_shards(client, as_completed, task, cfg: dict, options: RunOptions,
+                  folders: list[Path], key: str) -> list[tuple[int, BaseException]]:
+    """Submit ``task(cfg, folder, k, n, sprites)`` for each shard folder and wait for them
+    all; returns the failed ones (shard number, exception). Ctrl-C cancels the tasks (the
+    finished shards stay)."""
     n, out = len(folders), options.out
-    cfg, sprites = config.to_dict(), str(Path(options.sprites_dir).resolve())
-    futures = {client.submit(render_shard, cfg, str(folders[k].resolve()), k, n, sprites,
-                             key=f"sdcomp-shard-{k}-of-{n}-{out.resolve()}", pure=False): k
+    sprites = str(Path(options.sprites_dir).resolve())
+    futures = {client.submit(task, cfg, str(folders[k].resolve()), k, n, sprites,
+                             key=f"{key}-{k}-of-{n}-{out.resolve()}", pure=False): k
                for k in range(n)}
     bar = Progress(n, "shards", options.progress, unit="shard")
     failed: list[tuple[int, BaseException]] = []
@@ -188,3 +192,14 @@ def _render_shards(client, as_completed, config: GeneratorConfig, options: RunOp
     finally:
         bar.close()
     return failed
+
+
+def check_failed(failed: list[tuple[int, BaseException]], n: int, work: Path) -> None:
+    """UserError naming the first of the ``failed`` shards of ``n`` (the others are kept in
+    ``work`` for --resume); nothing when none failed."""
+    if failed:
+        k, exc = min(failed, key=lambda f: f[0])
+        others = f" (and {len(failed) - 1} more shards)" if len(failed) > 1 else ""
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        raise UserError(f"shard {shard_text((k, n))}{others} failed: {msg}; the other "
+                        f"shards are kept in {work}: re-run the same command with --resume")

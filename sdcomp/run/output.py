@@ -15,7 +15,7 @@ import shutil
 import signal
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from .. import __version__
 from ..annotate.masks import MASK_RULE
@@ -165,9 +165,18 @@ def _check_same_run(config: GeneratorConfig, meta: dict, out: Path,
                             f"--overwrite")
         diff = diff[1:]
     if diff:
-        k = diff[0]
-        raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
-                        f"{new[k]!r}; run with the same options, or use --overwrite")
+        different_option(diff[0], old, new)
+    check_same_shard(meta, out, shard)
+
+
+def different_option(key: str, old: dict, new: dict) -> NoReturn:
+    """The UserError of a resumed run whose option ``key`` differs from the folder's."""
+    raise UserError(f"--resume: the folder was made with {key} = {old.get(key)!r}, not "
+                    f"{new[key]!r}; run with the same options, or use --overwrite")
+
+
+def check_same_shard(meta: dict, out: Path, shard: tuple[int, int] | None) -> None:
+    """UserError unless the folder's metadata ``meta`` records ``shard`` (None: no shard)."""
     want = shard_text(shard) if shard else None
     if meta.get("shard") != want:
         was = f"--shard {meta['shard']}" if meta.get("shard") else "without --shard"

@@ -39,7 +39,13 @@ from ..util import files
 from ..util.pool import imap_ordered, note
 from ..util.progress import Progress
 from .options import RunOptions
-from .output import on_sigterm, os_error_message, restore_sigterm
+from .output import (
+    check_same_shard,
+    different_option,
+    on_sigterm,
+    os_error_message,
+    restore_sigterm,
+)
 from .record import encode_image
 from .shards import shard_range, shard_text
 
@@ -158,13 +164,8 @@ def _check_same(video: VideoConfig, layout: ClipLayout, shard: tuple[int, int] |
     new = {**new.pop("generator"), **new}
     diff = [k for k in new if k not in ("sequences", "n") and old.get(k) != new[k]]
     if diff:
-        k = diff[0]
-        raise UserError(f"--resume: the folder was made with {k} = {old.get(k)!r}, not "
-                        f"{new[k]!r}; run with the same options, or use --overwrite")
-    want = shard_text(shard) if shard else None
-    if meta.get("shard") != want:
-        raise UserError(f"--resume: {layout.root} was made with --shard {meta.get('shard')}, "
-                        f"not {want}; resume it as it was made, or use --overwrite")
+        different_option(diff[0], old, new)
+    check_same_shard(meta, layout.root, shard)
 
 
 def _results(clips: ClipGenerator, tasks: list, options: RunOptions

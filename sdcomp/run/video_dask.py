@@ -11,7 +11,6 @@ here.
 from __future__ import annotations
 
 import shutil
-import sys
 from pathlib import Path
 
 from ..clips import ClipGenerator
@@ -19,11 +18,19 @@ from ..errors import UserError
 from ..io.clip_layout import ClipLayout
 from ..pipeline import cached_generator
 from ..scene.video import VideoConfig
-from ..util.progress import Progress
-from .dask_engine import SHARDS_PER_WORKER, WORK, connect, existing_shards, local_cluster
+from .dask_engine import (
+    SHARDS_PER_WORKER,
+    WORK,
+    check_failed,
+    connect,
+    dask_modules,
+    existing_shards,
+    local_cluster,
+    submit_shards,
+)
 from .options import RunOptions
 from .output import on_sigterm, os_error_message, restore_sigterm
-from .shards import shard_folder, shard_text
+from .shards import shard_folder
 from .video import run_video
 from .video_merge import merge_video, video_config
 
@@ -44,14 +51,7 @@ def run_video_dask(video: VideoConfig, options: RunOptions, scheduler: str | Non
                    ) -> dict:
     """Make the sequences of ``video`` in ``options.out`` on a Dask cluster (at
     ``scheduler``, else a local one of ``options.workers`` processes); returns the counts."""
-    if options.shard is not None:
-        raise UserError(f"--shard {shard_text(options.shard)} and --engine dask exclude each "
-                        f"other (the Dask engine makes its own shards): drop one")
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise UserError("--engine dask needs dask.distributed: pip install 'sdcomp[dask]', "
-                        "or use --engine local") from None
+    Client, LocalCluster, as_completed = dask_modules(options)  # noqa: N806
     try:
         ClipGenerator(video, options.sprites_dir, progress=options.progress)  # atlases, once
         work = _prepare(options)
@@ -68,7 +68,9 @@ def run_video_dask(video: VideoConfig, options: RunOptions, scheduler: str | Non
                 n = existing_shards(work) or min(video.sequences, SHARDS_PER_WORKER * n_workers)
                 work.mkdir(parents=True, exist_ok=True)
                 folders = [work / shard_folder(k, n) for k in range(n)]
-                _submit(client, as_completed, video, options, folders)
+                failed = submit_shards(client, as_completed, render_video_shard,
+                                       video.to_dict(), options, folders, "sdcomp-video")
+            check_failed(failed, n, work)
         finally:
             restore_sigterm(old_term)
             if cluster is not None:
@@ -103,35 +105,3 @@ def _prepare(options: RunOptions) -> Path:
         raise UserError(f"output folder {out} is not empty: add --resume to continue the "
                         f"run that made it, or --overwrite to replace it")
     return work
-
-
-def _submit(client, as_completed, video: VideoConfig, options: RunOptions,
-            folders: list[Path]) -> None:
-    """One task per shard folder; UserError naming the first failed shard (the others are
-    kept for --resume)."""
-    n, out = len(folders), options.out
-    cfg, sprites = video.to_dict(), str(Path(options.sprites_dir).resolve())
-    futures = {client.submit(render_video_shard, cfg, str(folders[k].resolve()), k, n,
-                             sprites, key=f"sdcomp-video-{k}-of-{n}-{out.resolve()}",
-                             pure=False): k for k in range(n)}
-    bar = Progress(n, "shards", options.progress, unit="shard")
-    failed: list[tuple[int, BaseException]] = []
-    try:
-        for fut in as_completed(list(futures)):
-            if fut.status == "error":
-                failed.append((futures[fut], fut.exception()))
-            elif fut.status != "finished":
-                failed.append((futures[fut], RuntimeError(f"task {fut.status}")))
-            bar.update(1)
-    except BaseException:
-        client.cancel(list(futures))
-        print(f"stopped; the finished shards are kept in {out / WORK}. Continue with the "
-              f"same command and --resume.", file=sys.stderr)
-        raise
-    finally:
-        bar.close()
-    if failed:
-        k, exc = min(failed, key=lambda f: f[0])
-        msg = " ".join(str(exc).split()) or type(exc).__name__
-        raise UserError(f"shard {shard_text((k, n))} failed: {msg}; the other shards are kept "
-                        f"in {out / WORK}: re-run the same command with --resume")
