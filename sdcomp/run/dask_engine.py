@@ -134,11 +134,7 @@ def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
     cluster = None
     old_term = on_sigterm()  # a job scheduler's SIGTERM stops the run like Ctrl-C
     try:
-        if scheduler is None:
-            cluster = local_cluster(LocalCluster, options.workers)
-            client = Client(cluster)
-        else:
-            client = connect(Client, scheduler)
+        client, cluster = open_client(Client, LocalCluster, scheduler, options.workers)
         with client:
             n_workers = max(1, len(client.scheduler_info().get("workers", {})))
             n = existing_shards(work) or shards or min(config.n, SHARDS_PER_WORKER * n_workers)
@@ -154,6 +150,16 @@ def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
     counts = merge(folders, out, overwrite=True, remove=True, progress=options.progress)
     shutil.rmtree(work, ignore_errors=True)
     return counts
+
+
+def open_client(Client, LocalCluster, scheduler: str | None, workers: int  # noqa: N803
+                ) -> tuple:
+    """(a client, the local cluster it runs on or None): of the cluster at ``scheduler``,
+    else of a new local cluster of ``workers`` processes (close it after the client)."""
+    if scheduler is None:
+        cluster = local_cluster(LocalCluster, workers)
+        return Client(cluster), cluster
+    return connect(Client, scheduler), None
 
 
 def connect(Client, scheduler: str):  # noqa: N803

@@ -22,10 +22,9 @@ from .dask_engine import (
     SHARDS_PER_WORKER,
     WORK,
     check_failed,
-    connect,
     dask_modules,
     existing_shards,
-    local_cluster,
+    open_client,
     submit_shards,
 )
 from .options import RunOptions
@@ -58,11 +57,7 @@ def run_video_dask(video: VideoConfig, options: RunOptions, scheduler: str | Non
         cluster = None
         old_term = on_sigterm()
         try:
-            if scheduler is None:
-                cluster = local_cluster(LocalCluster, options.workers)
-                client = Client(cluster)
-            else:
-                client = connect(Client, scheduler)
+            client, cluster = open_client(Client, LocalCluster, scheduler, options.workers)
             with client:
                 n_workers = max(1, len(client.scheduler_info().get("workers", {})))
                 n = existing_shards(work) or min(video.sequences, SHARDS_PER_WORKER * n_workers)
