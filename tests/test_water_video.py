@@ -213,3 +213,30 @@ def test_video_sparkles_are_drawn_anew_each_frame():
             for k in range(4)]
     assert len(set(offs)) == 4
     assert view_water(model, pose, _replace(p, time=2 / 30), tex).noise_off == offs[2]
+
+
+def test_video_water_has_no_level_pop_as_the_altitude_wanders():
+    """Straight down, a still draws one wave level per image (the one nearest the pixel
+    footprint); a video frame's water cross-fades levels per row instead, so two frames a
+    thirtieth of a second apart whose altitudes straddle a level boundary still look alike
+    (a still-style pair would jump to another level's texture)."""
+    from dataclasses import replace as _replace
+
+    from sdcomp.render.water.surface import render_water
+    from sdcomp.render.water.textures import WaterTextures, pitch
+    from sdcomp.scene.camera import CameraModel, CameraPose
+    from sdcomp.scene.water import WaterParams
+
+    tex = WaterTextures.build(5)
+    model = CameraModel(width=256, height=256)
+    # the altitude at which the footprint crosses the boundary between levels 3 and 4
+    boundary = pitch(3) * 2 ** 0.5 * model.fx
+    p = WaterParams(seed=8, wind=5.0, frame_heading=0.0, time=1.0, sky="overcast",
+                    cloud_cover=1.0)
+    a, _ = render_water(model, CameraPose(boundary * 0.995, 90.0, 0.0), p, tex, glint="none")
+    b, _ = render_water(model, CameraPose(boundary * 1.005, 90.0, 0.0),
+                        _replace(p, time=1.0 + 1 / 30), tex, glint="none")
+    ya, yb = (cv2.cvtColor(x, cv2.COLOR_RGB2GRAY).astype(np.float32) for x in (a, b))
+    hp = [y - cv2.GaussianBlur(y, (0, 0), 3) for y in (ya, yb)]
+    corr = float(np.corrcoef(hp[0].ravel(), hp[1].ravel())[0, 1])
+    assert corr > 0.5, corr

@@ -82,8 +82,8 @@ def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
         if lev >= N_LEVELS:
             dst[a:b] = _neutral(cols)
             continue
-        cv2.remap(textures.ensure(s, lev), mx[a:b], my[a:b], cv2.INTER_LINEAR, dst=dst[a:b],
-                  borderMode=cv2.BORDER_WRAP)
+        cv2.remap(_source(textures.ensure(s, lev), rot), mx[a:b], my[a:b], cv2.INTER_LINEAR,
+                  dst=dst[a:b], borderMode=cv2.BORDER_WRAP)
     tick("r.main")
     # cross-fade zones: towards the coarser level near its boundary, the finer one near
     # the other, half-way at the boundary
@@ -112,8 +112,9 @@ def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
             if lev >= N_LEVELS:
                 tmp[:] = _neutral(cols)
             else:
-                cv2.remap(textures.ensure(s, lev), ox[start:stop], oy[start:stop],
-                          cv2.INTER_LINEAR, dst=tmp, borderMode=cv2.BORDER_WRAP)
+                cv2.remap(_source(textures.ensure(s, lev), rot), ox[start:stop],
+                          oy[start:stop], cv2.INTER_LINEAR, dst=tmp,
+                          borderMode=cv2.BORDER_WRAP)
             cv2.blendLinear(block, tmp, wi_all[start:stop], wo_all[start:stop], dst=block)
             start = stop
     tick("r.blend")
@@ -164,18 +165,33 @@ def _rotation(frame: dict, world_off) -> dict | None:
             "origin": org}
 
 
+def _source(tile: np.ndarray, rot: dict | None) -> np.ndarray:
+    """What a layer remaps from: a still's whole (N + 1, N + 1, 4) tile (its maps stay
+    within it but for a texel), a rotated view's (N, N) period of it (a view: remap's
+    BORDER_WRAP then wraps any coordinate exactly, and its maps need no reduction)."""
+    return tile if rot is None else tile[:N_TILE, :N_TILE]
+
+
 def _rotated_maps(p, tt, fwd, xs, rot: dict, mx, my) -> None:
     """Oblique maps through a rotation: a row's ground point at ``t x`` metres right and
     ``t fwd`` forward of the camera's nadir is at ``m @ (right, forward) + off`` metres in
-    the tile frame; coordinates (texels, column c holding x = c - N/2) reduced mod N."""
+    the tile frame; coordinates in texels (column c holding x = c - N/2), each row's start
+    reduced mod N and rows spanning more than two periods reduced whole (the others wrap in
+    remap: :func:`_source`)."""
     m, off = rot["m"], rot["off"]
     a = tt / p  # (rows,) texels per unit image x
     f = tt * fwd / p  # texels forward
+    width = float(xs[-1] - xs[0]) if len(xs) > 1 else 0.0
     for out, row, half in ((mx, 0, N_TILE // 2), (my, 1, 0)):
         base = np.mod(f * m[row, 1] + off[row] / p + half, N_TILE).astype(np.float32)
-        np.multiply((a * m[row, 0]).astype(np.float32)[:, None], xs[None, :], out=out)
+        slope = (a * m[row, 0]).astype(np.float32)
+        np.multiply(slope[:, None], xs[None, :], out=out)
         out += base[:, None]
-        np.mod(out, np.float32(N_TILE), out=out)
+        wide = np.flatnonzero(np.abs(slope) * width > 2 * N_TILE)
+        if len(wide):
+            blk = out[wide]
+            blk -= np.floor(blk * np.float32(1.0 / N_TILE)) * np.float32(N_TILE)
+            out[wide] = blk
 
 
 def _nadir_warp(tile: np.ndarray, plan, alt: float, div: int, p: float, rot: dict,

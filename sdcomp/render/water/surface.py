@@ -58,6 +58,7 @@ from .textures import N_LEVELS, SET_ANGLES, WaterTextures, pitch
 from .waves import WaveState, level_continuous, wave_state
 
 SHADINGS = ("fast", "exact")
+VIDEO_MAX_PITCH = 89.99  # degrees: video frames' water is drawn as (barely) oblique views
 #: how the sun's glint is drawn: sparkles (compound Poisson per pixel), its smooth mean, or
 #: not at all (for comparisons with a glint-free reference)
 GLINTS = ("sparkles", "mean", "none")
@@ -89,7 +90,12 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
     (step 1 of the module docstring). Raises ValueError for a view that sees no sea
     (sdcomp's poses always do: pitch >= 15 degrees)."""
     w, h = int(model.width), int(model.height)
-    plan = view_plan(w, h, float(model.fx), float(model.fy), float(pose.pitch))
+    pitch_deg = float(pose.pitch)
+    if params.time is not None:  # a video frame: never the straight-down crops, whose one
+        # level per image would pop as the altitude wanders across a level boundary and
+        # switch paths as the gimbal jitters at 90 degrees; the per-row levels cross-fade
+        pitch_deg = min(pitch_deg, VIDEO_MAX_PITCH)
+    plan = view_plan(w, h, float(model.fx), float(model.fy), pitch_deg)
     if plan.sea is None:
         raise ValueError(f"a view at pitch {pose.pitch} degrees sees no sea")
     alt = float(pose.altitude)
