@@ -126,7 +126,7 @@ def prepare_clips(video: VideoConfig, options: RunOptions) -> set[int]:
     layout = ClipLayout(out)
     done: set[int] = set()
     if entries and options.overwrite:
-        _remove(layout)
+        remove_clips(layout)
     elif entries and options.resume:
         _check_same(video, layout, options.shard)
         wanted = set(sequence_indices(video, options.shard))
@@ -139,7 +139,7 @@ def prepare_clips(video: VideoConfig, options: RunOptions) -> set[int]:
     return done
 
 
-def _remove(layout: ClipLayout) -> None:
+def remove_clips(layout: ClipLayout) -> None:
     """Remove a video run's own entries (other files stay)."""
     for s in layout.sequences():
         shutil.rmtree(layout.seq(s))

@@ -30,7 +30,7 @@ from .dask_engine import (
 from .options import RunOptions
 from .output import on_sigterm, os_error_message, restore_sigterm
 from .shards import shard_folder
-from .video import run_video
+from .video import remove_clips, run_video
 from .video_merge import merge_video, video_config
 
 
@@ -88,11 +88,7 @@ def _prepare(options: RunOptions) -> Path:
     entries = [p for p in out.iterdir() if p.name != WORK] if out.is_dir() else []
     if options.overwrite:
         shutil.rmtree(work, ignore_errors=True)
-        layout = ClipLayout(out)
-        for s in layout.sequences():
-            shutil.rmtree(layout.seq(s))
-        for p in (layout.meta, layout.coco, layout.data_yaml):
-            p.unlink(missing_ok=True)
+        remove_clips(ClipLayout(out))
     elif options.resume and entries and not work.is_dir():
         raise UserError(f"--resume --engine dask: {out} holds a local run; continue it with "
                         f"--engine local --resume, or use --overwrite")
