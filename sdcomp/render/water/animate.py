@@ -165,13 +165,13 @@ class AnimatedTextures:
     """The tiles of ``base`` at ``time`` seconds with the wind blowing towards ``downwind``
     (+1 / -1) along each set's wind axis: the interface the renderer reads from
     :class:`WaterTextures` (``ensure``, ``coarse_level``, ``level_sd``, ``level_share``,
-    ``clouds``, ``noise``, ``seed``); level tiles evolved on first use."""
+    ``clouds``, ``noise``, ``seed``); level tiles evolved on first use and kept by
+    :func:`tile_at`."""
 
     def __init__(self, base: WaterTextures, time: float, downwind: float = 1.0):
         self.base = base
         self.time = float(time)
         self.downwind = 1.0 if downwind >= 0 else -1.0
-        self._tiles: dict[tuple[int, int], np.ndarray] = {}
 
     @property
     def seed(self) -> int:
@@ -194,12 +194,9 @@ class AnimatedTextures:
         return self.base.level_share(s, level)
 
     def ensure(self, s: int, level: int) -> np.ndarray:
-        """(N + 1, N + 1, 4) uint8 level tile ``level`` of set ``s`` at this time."""
-        tile = self._tiles.get((s, level))
-        if tile is None:
-            tile = self._tiles[(s, level)] = tile_at(self.base, s, level, self.time,
-                                                     self.downwind)
-        return tile
+        """(N + 1, N + 1, 4) uint8 level tile ``level`` of set ``s`` at this time (from the
+        process's cache of evolved tiles, :func:`tile_at`)."""
+        return tile_at(self.base, s, level, self.time, self.downwind)
 
     def coarse_level(self, level: int) -> np.ndarray:
         """(N + 1, N + 1, 2) uint8 slope codes of set 0's level tile at this time."""
