@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import struct
 import zlib
 from pathlib import Path
@@ -65,7 +64,7 @@ def _damaged(atlas_dir: Path, tmp: Path, how: str) -> Path:
     if how == "truncated":
         npz.write_bytes(data[: len(data) // 2])
     elif how == "random":
-        npz.write_bytes(os.urandom(len(data)))
+        npz.write_bytes(np.random.default_rng(1).bytes(len(data)))
     elif how == "empty":
         npz.write_bytes(b"")
     elif how in ("pickle", "pickle-checksummed"):
@@ -79,7 +78,7 @@ def _damaged(atlas_dir: Path, tmp: Path, how: str) -> Path:
             index["npz_sha256"] = hashlib.sha256(npz.read_bytes()).hexdigest()
             idx.write_text(json.dumps(index))
     elif how == "json-random":
-        idx.write_bytes(os.urandom(200))
+        idx.write_bytes(np.random.default_rng(2).bytes(200))
     elif how == "json-truncated":
         idx.write_bytes(idx.read_bytes()[:100])
     elif how == "json-wrong-types":
@@ -218,7 +217,8 @@ def test_unknown_config_keys_are_refused(text, key, tmp_path, sprites_dir):
 
 
 @pytest.mark.parametrize("data", [b"\xff\xfe\x00bad", b"altitude = [\n", b"\x00" * 10,
-                                  b"n = 99999999999999999999\n", os.urandom(64)])
+                                  b"n = 99999999999999999999\n",
+                                  np.random.default_rng(3).bytes(64)])
 def test_corrupt_config_file(data, tmp_path, sprites_dir):
     conf = tmp_path / "c.toml"
     conf.write_bytes(data)
@@ -258,7 +258,7 @@ def test_corrupt_background_photo_is_named(case, tmp_path, sprites_dir):
     _photo(bg / "good.jpg")
     path = bg / case
     if case.startswith("random"):
-        path.write_bytes(os.urandom(2000))
+        path.write_bytes(np.random.default_rng(4).bytes(2000))
     elif case.startswith("truncated"):
         ok = tmp_path / f"whole{path.suffix}"
         _photo(ok, 1)
