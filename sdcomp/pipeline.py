@@ -35,8 +35,9 @@ from .assets import sar
 from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
 from .atlas.builtin import CLUTTER_ATLAS, object_atlas
+from .atlas.cache import ensure_atlas
 from .atlas.sprites import SpriteSource
-from .atlas.store import AtlasConfig, ensure_atlas
+from .atlas.store import AtlasConfig
 from .errors import UserError
 from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds

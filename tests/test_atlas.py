@@ -20,6 +20,7 @@ import pytest
 import trimesh
 
 from sdcomp.assets.mesh import ColoredMesh
+from sdcomp.atlas.cache import ensure_atlas
 from sdcomp.atlas.poses import PoseGrid
 from sdcomp.atlas.raster import render
 from sdcomp.atlas.sheet import contact_sheet, write_contact_sheet
@@ -30,7 +31,6 @@ from sdcomp.atlas.store import (
     atlas_paths,
     build_atlas,
     cache_key,
-    ensure_atlas,
     load_atlas,
     read_index,
     save_atlas,
@@ -220,6 +220,38 @@ def test_workers_do_not_change_the_result(mesh, tmp_path):
 
 
 # --------------------------------------------------------------------------- cache
+
+def _ensure_after(barrier, folder: Path, results) -> None:
+    """Child process: wait for the other, then ensure the slow atlas in ``folder``."""
+    barrier.wait()
+    _, built = ensure_atlas(box_mesh(), SLOW, folder, workers=1, progress=False)
+    results.put(built)
+
+
+#: an atlas that takes a few tenths of a second to build: two processes started together overlap
+SLOW = AtlasConfig(size=48, supersample=2,
+                   grid=PoseGrid(max_off_nadir=60, off_nadir_step=20, max_error=12))
+
+
+def test_processes_sharing_a_folder_build_an_atlas_once(tmp_path):
+    """Two processes (two shards of a job array) wanting the same missing atlas at the same
+    moment: one builds it, the other waits and loads it; the files are whole."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    barrier, results = ctx.Barrier(2), ctx.Queue()
+    procs = [ctx.Process(target=_ensure_after, args=(barrier, tmp_path, results))
+             for _ in range(2)]
+    for proc in procs:
+        proc.start()
+    built = sorted(results.get(timeout=300) for _ in procs)
+    for proc in procs:
+        proc.join(timeout=60)
+        assert proc.exitcode == 0
+    assert built == [False, True]
+    assert len(load_atlas(atlas_paths(tmp_path, "box")[1])) > 0
+    assert not list(tmp_path.glob("*.tmp"))
+
 
 def test_ensure_atlas_reuses_then_rebuilds_on_any_change(mesh, tmp_path):
     npz, idx, png = atlas_paths(tmp_path, mesh.name)

@@ -21,8 +21,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sdcomp.assets.meshfile import load_mesh_file
+from sdcomp.atlas.cache import ensure_atlas
 from sdcomp.atlas.poses import PoseGrid
-from sdcomp.atlas.store import AtlasConfig, AtlasError, ensure_atlas, load_atlas
+from sdcomp.atlas.store import AtlasConfig, AtlasError, load_atlas
 from sdcomp.errors import UserError
 from sdcomp.render.photos import MAX_PIXELS, Backgrounds
 

@@ -14,6 +14,8 @@ waterline, so that the renderer can scale, relight and submerge the sprite later
   grid and render parameters, pose angles, checksum of the npz), written last.
 - ``<out>/<name>_sheet.png``: contact sheet of all poses (:mod:`sdcomp.atlas.sheet`).
 
+Reuse or build (the cache a run reads) is :mod:`sdcomp.atlas.cache`.
+
 The command line (``python -m sdcomp.atlas build|info``) is :mod:`sdcomp.cli.atlas`.
 """
 
@@ -34,12 +36,10 @@ from .. import __version__
 from ..assets.mesh import ColoredMesh
 from ..errors import UserError
 from ..util.files import atomic_path, atomic_write_bytes
-from ..util.log import get_logger
 from ..util.pool import imap_ordered
 from ..util.progress import Progress
 from .poses import PoseGrid, nearest_pose
 from .raster import Sprite, render
-from .sheet import write_contact_sheet
 
 FORMAT = "sdcomp-atlas"
 FORMAT_VERSION = 1
@@ -367,31 +367,3 @@ def _check_arrays(arrays: dict, index: dict, npz: Path, how: str) -> None:
 def _how_to_rebuild(index: dict | None) -> str:
     cmd = (index or {}).get("rebuild_command") or "python -m sdcomp.atlas build --mesh NAME_OR_PATH"
     return f"rebuild it with `{cmd} --force`"
-
-
-def ensure_atlas(mesh: ColoredMesh, config: AtlasConfig, out_dir: str | Path, *,
-                 force: bool = False, workers: int | None = None,
-                 progress: bool | None = None, rebuild_command: str = "",
-                 sheet: bool = True) -> tuple[Atlas, bool]:
-    """Load the cached atlas of ``mesh`` and ``config`` from ``out_dir``, or build and save it.
-
-    A cached atlas is reused only when its cache key (format, mesh content, parameters)
-    matches and its files are intact; otherwise it is rebuilt. Returns (atlas, built).
-    """
-    npz, idx, png = atlas_paths(out_dir, mesh.name)
-    if not force and idx.exists() and npz.exists():
-        try:
-            if read_index(idx).get("cache_key") == cache_key(mesh, config):
-                atlas = load_atlas(idx)
-                if sheet and not png.exists():
-                    write_contact_sheet(atlas, png)
-                return atlas, False
-        except AtlasError as e:  # damaged: say which file, then rebuild it below
-            get_logger(__name__).warning(
-                "the sprite atlas %s is damaged or unreadable (%s); rebuilding it",
-                idx, str(e).split(": rebuild it")[0])
-    atlas = build_atlas(mesh, config, workers=workers, progress=progress)
-    save_atlas(atlas, out_dir, rebuild_command)
-    if sheet:
-        write_contact_sheet(atlas, png)
-    return atlas, True

@@ -23,6 +23,7 @@ from ..assets import sar
 from ..assets.library import MeshSpec, kind_of
 from ..assets.mesh import ColoredMesh
 from ..atlas.builtin import object_atlas
+from ..atlas.cache import ensure_atlas
 from ..atlas.poses import PoseGrid
 from ..atlas.sheet import kind_sheet, write_png
 from ..atlas.store import (
@@ -30,7 +31,6 @@ from ..atlas.store import (
     Atlas,
     AtlasConfig,
     atlas_paths,
-    ensure_atlas,
     load_atlas,
     resolve_atlas_path,
 )

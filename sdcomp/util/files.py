@@ -1,4 +1,5 @@
-"""Atomic file writes: a file appears whole under its name, or not at all."""
+"""Atomic file writes: a file appears whole under its name, or not at all; and a lock
+that lets processes sharing a folder take turns at making a file."""
 
 from __future__ import annotations
 
@@ -28,6 +29,25 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+@contextmanager
+def held_lock(path: str | Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on the file ``path`` (created empty if absent) for
+    the block, so that processes (workers, shards of a job array, test runners) sharing a
+    folder take turns. The file is left in place: removing it would let a waiting process
+    lock a file no newcomer sees. Where ``fcntl`` is missing (Windows) nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on POSIX
+        yield
+        return
+    with open(path, "a+b") as fh:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
 
 
 def _umask() -> int:
