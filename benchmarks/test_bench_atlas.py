@@ -28,14 +28,18 @@ def test_bench_render_one_pose(benchmark, rov):
     assert s.mask.any()
 
 
-def test_bench_default_atlas_build(benchmark, rov, tmp_path):
-    """The default atlas (all cores), saved: time and size on disk in extra_info."""
+def test_bench_default_atlas_build(benchmark, machine, rov, tmp_path):
+    """The default atlas (all cores), saved: time and size on disk in extra_info; the target
+    scaled by the machine's slowdown."""
     config = AtlasConfig()
     atlas = benchmark.pedantic(build_atlas, args=(rov, config),
                                kwargs={"workers": os.cpu_count(), "progress": False},
-                               rounds=2, iterations=1)
+                               rounds=1, iterations=1)
     npz, _ = save_atlas(atlas, tmp_path)
     benchmark.extra_info.update(poses=len(atlas), size_px=config.size,
                                 npz_bytes=npz.stat().st_size, workers=os.cpu_count())
-    assert benchmark.stats.stats.mean <= TARGET_S, (
-        f"default atlas took {benchmark.stats.stats.mean:.1f} s, target {TARGET_S} s")
+    machine.measure_after()
+    limit = machine.limit(TARGET_S)
+    assert benchmark.stats.stats.mean <= limit, (
+        f"default atlas took {benchmark.stats.stats.mean:.1f} s, target {TARGET_S} s "
+        f"({limit:.0f} s on this machine)")

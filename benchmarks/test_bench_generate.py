@@ -4,8 +4,10 @@ Targets from the generator issue, measured on the 2-core development machine:
 416x416 JPEG + masks + COCO on disk >= 1000 images/s with 2 workers; in-memory API >= 1500
 images/s in one process; 5472x3648 JPEG >= 10 images/s with 2 workers; peak memory of
 ``--n 100000`` within 10 % of ``--n 1000`` (the 100000-image run is ``-m slow``).
-The asserts are sanity floors far below the targets (so a loaded CI machine does not fail);
-the measured rates are printed and stored for comparison with the targets.
+The asserts are sanity floors far below the targets, stated for the development machine at
+rest and scaled by the ``machine`` fixture's slowdown (benchmarks/conftest.py), so a slow or
+loaded CI machine does not fail; the measured rates are printed and stored for comparison
+with the targets.
 """
 
 from __future__ import annotations
@@ -35,42 +37,47 @@ def default_generator(sprites_dir):
     return gen
 
 
-def _report(benchmark, key: str, images: int) -> float:
+def _report(benchmark, machine, key: str, images: int) -> float:
+    """Images per second over the benchmark's mean round, recorded and printed beside the
+    machine's slowdown (measured after the runs)."""
     rate = images / benchmark.stats.stats.mean
+    slowdown = machine.measure_after()
     benchmark.extra_info.update(images=images, images_per_s=round(rate, 1),
                                 target_images_per_s=TARGETS[key])
-    print(f"\n{key}: {rate:.0f} images/s (target {TARGETS[key]:.0f})")
+    print(f"\n{key}: {rate:.0f} images/s (target {TARGETS[key]:.0f}; this machine "
+          f"{slowdown:.2f}x slower than the reference)")
     return rate
 
 
-def test_bench_in_memory_416(benchmark, default_generator):
+def test_bench_in_memory_416(benchmark, machine, default_generator):
     """The Python API, one process: render image i to arrays (image, instance map)."""
-    n = 500
+    n = 300
     counter = iter(range(10**9))
 
     def batch():
         for _ in range(n):
             default_generator.render(next(counter))
 
-    benchmark.pedantic(batch, rounds=3, iterations=1)
-    assert _report(benchmark, "memory_416", n) > 30  # 60-67/s here with the water of issue 19
+    benchmark.pedantic(batch, rounds=2, iterations=1)
+    # 60-67/s at rest with the water of issue 19; the floors are a third of the figures
+    assert _report(benchmark, machine, "memory_416", n) > machine.floor(20)
 
 
-def test_bench_disk_416_two_workers(benchmark, default_generator, tmp_path):
+def test_bench_disk_416_two_workers(benchmark, machine, default_generator, tmp_path):
     """JPEG images, 16-bit PNG masks, journal and COCO files, 2 workers."""
-    n = 2000
+    n = 1000
     config = GeneratorConfig.from_mapping({"n": n}, default_generator.config)
-    _time_runs(benchmark, config, default_generator, tmp_path, rounds=2)
-    assert _report(benchmark, "disk_416", n) > 20
+    _time_runs(benchmark, config, default_generator, tmp_path, rounds=1)
+    assert _report(benchmark, machine, "disk_416", n) > machine.floor(30)  # 95/s at rest
 
 
-def test_bench_disk_full_resolution(benchmark, sprites_dir, tmp_path):
+def test_bench_disk_full_resolution(benchmark, machine, sprites_dir, tmp_path):
     """5472 x 3648 JPEG frames with masks and COCO, 2 workers."""
-    n = 24
+    n = 12
     config = GeneratorConfig(n=n, width=5472, height=3648)
     gen = Generator(config, sprites_dir, progress=False)
     _time_runs(benchmark, config, gen, tmp_path, rounds=1)
-    assert _report(benchmark, "disk_full", n) > 0.3  # 1.0/s idle; 0.49/s on a slow day
+    assert _report(benchmark, machine, "disk_full", n) > machine.floor(0.33)  # 1.0/s at rest
 
 
 def _time_runs(benchmark, config: GeneratorConfig, gen: Generator, tmp_path: Path,
@@ -105,26 +112,34 @@ def _peak_rss_mib(n: int, out: Path, sprites: Path, *extra: str) -> float:
     return float(line.split()[1])
 
 
-@pytest.mark.parametrize("big", [20_000, pytest.param(100_000, marks=pytest.mark.slow)])
-def test_bench_memory_flat(benchmark, sprites_dir, tmp_path, big):
-    """Peak memory does not grow with --n (streaming writes, streamed COCO)."""
-    small_peak = _peak_rss_mib(1000, tmp_path / "small", sprites_dir)
-    big_peak = benchmark.pedantic(_peak_rss_mib, args=(big, tmp_path / "big", sprites_dir),
+@pytest.mark.parametrize("big,size", [(10_000, 128),
+                                      pytest.param(100_000, 416, marks=pytest.mark.slow)])
+def test_bench_memory_flat(benchmark, sprites_dir, tmp_path, big, size):
+    """Peak memory does not grow with --n (streaming writes, streamed COCO). The run in CI
+    uses 128 px frames at 10-20 m (objects annotated in every frame): what could grow with
+    --n is per-image bookkeeping, which small frames make a larger share of the peak; the
+    100000-image run at 416 px is ``-m slow``."""
+    options = ("--size", str(size), "--altitude", "10-20")
+    small_peak = _peak_rss_mib(1000, tmp_path / "small", sprites_dir, *options)
+    big_peak = benchmark.pedantic(_peak_rss_mib,
+                                  args=(big, tmp_path / "big", sprites_dir, *options),
                                   rounds=1, iterations=1)
     ratio = big_peak / small_peak
-    benchmark.extra_info.update(peak_mib_1000=round(small_peak, 1),
+    benchmark.extra_info.update(size=size, peak_mib_1000=round(small_peak, 1),
                                 **{f"peak_mib_{big}": round(big_peak, 1)},
                                 ratio=round(ratio, 3))
-    print(f"\npeak memory: n=1000 {small_peak:.0f} MiB, n={big} {big_peak:.0f} MiB "
-          f"({ratio:.3f}x)")
+    print(f"\npeak memory at {size} px: n=1000 {small_peak:.0f} MiB, n={big} "
+          f"{big_peak:.0f} MiB ({ratio:.3f}x)")
     counts = json.loads((tmp_path / "big" / "dataset.json").read_text())["counts"]
     assert counts["images"] == big
+    assert counts["annotations"] >= big  # 1-3 BlueROV2s a frame at 10-20 m
     assert ratio <= 1.10
 
 
-def test_bench_huge_frame(benchmark, sprites_dir, tmp_path):
+def test_bench_huge_frame(benchmark, machine, sprites_dir, tmp_path):
     """One 30000 x 30000 frame with its mask and COCO entry, written by the command line:
-    peak memory <= 6 GB and wall time <= 2 minutes. Low altitude, several objects, motion
+    peak memory <= 6 GB and wall time <= 2 minutes (on the development machine at rest;
+    scaled by the machine's slowdown). Low altitude, several objects, motion
     and defocus blur, the camera's look (its point-wise stages at this size: tone, noise,
     saturation): the expensive case."""
     out = tmp_path / "huge"
@@ -136,11 +151,14 @@ def test_bench_huge_frame(benchmark, sprites_dir, tmp_path):
     secs = time.perf_counter() - start
     benchmark.extra_info.update(peak_mib=round(peak, 1), seconds=round(secs, 1),
                                 **{f"limit_{k}": v for k, v in HUGE_LIMITS.items()})
-    print(f"\nhuge frame {HUGE}x{HUGE}: {secs:.1f} s, peak {peak:.0f} MiB")
+    machine.measure_after()
+    limit = machine.limit(HUGE_LIMITS["seconds"])
+    print(f"\nhuge frame {HUGE}x{HUGE}: {secs:.1f} s, peak {peak:.0f} MiB (time limit on "
+          f"this machine {limit:.0f} s)")
     coco = json.loads((out / "annotations" / "instances_train.json").read_text())
     assert coco["images"][0]["width"] == coco["images"][0]["height"] == HUGE
     assert coco["annotations"], "the frame should show objects at 10 m"
     assert (out / "images" / coco["images"][0]["file_name"]).stat().st_size > 0
     assert (out / "masks" / coco["images"][0]["mask_file"]).stat().st_size > 0
     assert peak <= HUGE_LIMITS["peak_mib"]
-    assert secs <= HUGE_LIMITS["seconds"]
+    assert secs <= limit

@@ -3,7 +3,8 @@
 
 Target from the integration issue: >= 1000 images/s on the 2-core development machine, so
 that a detector never waits for data. The assert is a sanity floor far below the target (a
-loaded CI machine must not fail); the measured rate is printed and stored. Measured with the
+loaded CI machine must not fail: it is scaled by the ``machine`` fixture's slowdown); the
+measured rate is printed and stored. Measured with the
 default float32 images and with ``image_dtype=torch.uint8`` (a quarter of the bytes from the
 workers to the main process).
 """
@@ -25,12 +26,12 @@ WARM_BATCHES = 4  # worker start-up (each builds its generator) is not throughpu
 
 @pytest.mark.parametrize("image_dtype", [torch.float32, torch.uint8],
                          ids=["float32", "uint8"])
-def test_bench_dataloader_416_two_workers(benchmark, sprites_dir, image_dtype):
+def test_bench_dataloader_416_two_workers(benchmark, machine, sprites_dir, image_dtype):
     """Default config (416x416, 1-3 BlueROV2s, clutter), CHW images and targets with
     masks, batches of 16, 2 worker processes, read by the main process."""
     config = GeneratorConfig(seed=1)
     Generator(config, sprites_dir, progress=False)  # atlases built before the workers start
-    batches = 40
+    batches = 24
     dataset = SyntheticDetection(config, (batches + WARM_BATCHES) * BATCH * 4,
                                  sprites_dir=sprites_dir, image_dtype=image_dtype)
     loader = torch.utils.data.DataLoader(dataset, batch_size=BATCH, num_workers=2,
@@ -47,10 +48,12 @@ def test_bench_dataloader_416_two_workers(benchmark, sprites_dir, image_dtype):
             n += len(images)
         return n
 
-    n = benchmark.pedantic(take, rounds=3, iterations=1)
+    n = benchmark.pedantic(take, rounds=1, iterations=1)
     rate = n / benchmark.stats.stats.mean
     benchmark.extra_info.update(images=n, images_per_s=round(rate, 1),
                                 target_images_per_s=TARGET, image_dtype=str(image_dtype))
+    slowdown = machine.measure_after()
     print(f"\nSyntheticDetection, 2-worker DataLoader, 416x416, {image_dtype}: {rate:.0f} "
-          f"images/s (target {TARGET:.0f})")
-    assert rate > 20
+          f"images/s (target {TARGET:.0f}; this machine {slowdown:.2f}x slower than the "
+          "reference)")
+    assert rate > machine.floor(30)  # 85-98/s at rest
