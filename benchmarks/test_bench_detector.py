@@ -1,8 +1,9 @@
 """The detector benchmark end to end on CPU (pytest-benchmark; figures in ``extra_info``).
 
-- ``test_smoke_grid``: ``python -m sdcomp.bench grid --preset smoke`` (every row of Tables
-  1-5, tiny) in a fresh folder: every table produced, every metric in [0, 1] or -1, the
-  training loss falling in every cell, the plots written; a second run skips every cell.
+- ``test_smoke_grid_time`` (``-m slow``, 2-4 min): the wall time of ``python -m sdcomp.bench
+  grid --preset smoke`` (every row of Tables 1-5, tiny) in a fresh folder, within the issue's
+  15 minutes; what it makes is checked in CI by tests/test_bench_smoke.py, which runs in
+  parallel with the other tests.
 - ``test_cpu_mobilenet_learns`` (``-m slow``, about 15 min on 2 cores): MobileNetV3-FPN from
   scratch on 626 images at 10 m reaches AP50 >= 0.5 on the held-out synthetic field set.
 """
@@ -17,9 +18,7 @@ import torch
 
 from sdcomp.bench.cli import main
 from sdcomp.bench.datasets import CacheOptions, FieldSpec, field_test
-from sdcomp.bench.evaluate import METRICS
-from sdcomp.bench.grid import PRESETS, Cell, GridSpec
-from sdcomp.bench.report import PLOTS
+from sdcomp.bench.grid import Cell, GridSpec
 from sdcomp.bench.runner import RunContext, run_cell
 from sdcomp.bench.train import TrainConfig
 from sdcomp.errors import run_cli
@@ -47,7 +46,10 @@ def one_thread():
     torch.set_num_threads(n)
 
 
-def test_smoke_grid(benchmark, sprites_dir, tmp_path, one_thread):
+@pytest.mark.slow
+def test_smoke_grid_time(benchmark, machine, sprites_dir, tmp_path, one_thread):
+    """Wall time of the smoke grid in a fresh folder (what it makes is checked in CI by
+    tests/test_bench_smoke.py) and of a second run that skips every cell."""
     out = tmp_path / "r"
     argv = ["grid", "--preset", "smoke", "--out", str(out), "--sprites", str(sprites_dir),
             "--threads", "1"]
@@ -59,40 +61,19 @@ def test_smoke_grid(benchmark, sprites_dir, tmp_path, one_thread):
         timing["first"] = time.perf_counter() - t0
 
     benchmark.pedantic(once, rounds=1, iterations=1)
-    spec = PRESETS["smoke"]
-    report = (out / "report.md").read_text()
-    for t in (1, 2, 3, 4, 5):
-        assert f"## Table {t}:" in report
-    assert "(not run)" not in report and "synthetic-field" in report
-    assert sorted(p.name for p in (out / "plots").iterdir()) == sorted(PLOTS)
     cells = [json.loads(p.read_text()) for p in sorted((out / "cells").glob("*.json"))]
-    assert sorted(c["cell"] for c in cells) == sorted(c.id for c in spec.cells())
-    per_cell = {}
-    for c in cells:
-        for part in ("test", "val"):
-            for k in METRICS:
-                v = c[part]["metrics"][k]
-                assert isinstance(v, float) and (v == -1.0 or 0.0 <= v <= 1.0), (c["cell"], k)
-        assert c["test"]["test_set"].startswith("synthetic-field")
-        losses = [row[0] for row in c["training"]["losses"]]
-        assert len(losses) == spec.train.max_iter
-        k = len(losses) // 3
-        assert sum(losses[-k:]) / k < 0.8 * sum(losses[:k]) / k, (c["cell"], losses)
-        per_cell[c["cell"]] = c["wall_time_s"]["total"]
-    # a second run finds every cell done
+    per_cell = [c["wall_time_s"]["total"] for c in cells]
     t0 = time.perf_counter()
-    before = {p.name: p.read_bytes() for p in (out / "cells").glob("*.json")}
     assert run_cli(main, argv) == 0
     rerun = time.perf_counter() - t0
-    assert {p.name: p.read_bytes() for p in (out / "cells").glob("*.json")} == before
     benchmark.extra_info.update(
         wall_s=round(timing["first"], 1), rerun_s=round(rerun, 1), cells=len(cells),
-        cell_s_mean=round(sum(per_cell.values()) / len(per_cell), 2),
-        cell_s_max=round(max(per_cell.values()), 2))
+        cell_s_mean=round(sum(per_cell) / len(per_cell), 2), cell_s_max=round(max(per_cell), 2))
     print(f"\nsmoke grid: {timing['first']:.1f} s for {len(cells)} cells "
           f"({benchmark.extra_info['cell_s_mean']} s per cell, max "
           f"{benchmark.extra_info['cell_s_max']} s); re-run {rerun:.1f} s")
-    assert timing["first"] < SMOKE_LIMIT_S
+    machine.measure_after()
+    assert timing["first"] < machine.limit(SMOKE_LIMIT_S)
     assert rerun < timing["first"]
 
 
