@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,12 @@ import pytest
 def sprites_dir(tmp_path_factory) -> Path:
     """One sprite-atlas folder for the whole test session (atlases are built on first use
     and reused, as a user's ``sprites/`` would be); never the repository's own."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        # one folder for every pytest-xdist worker: an atlas is built once, by whichever
+        # worker needs it first, while the others wait (sdcomp.atlas.cache's lock)
+        shared = tmp_path_factory.getbasetemp().parent / "sprites"
+        shared.mkdir(exist_ok=True)
+        return shared
     return tmp_path_factory.mktemp("sprites")
 
 
