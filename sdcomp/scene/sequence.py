@@ -28,8 +28,7 @@ from .flight import Flight, FlightState, Wander, draw_flight
 from .sample import EDGE_MARGIN, MAX_DISTANCE_ALTITUDES, sample_scene
 from .scene import Placement, Role, Scene, on_land
 from .video import VideoConfig
-
-GRAVITY = 9.81
+from .water import GRAVITY
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ SKY_KINDS = ("clear", "broken", "overcast")
 #: sunny or partly cloudy)
 SKY_WEIGHTS = {"clear": 0.4, "broken": 0.45, "overcast": 0.15}
 SAND = (0.32, 0.28, 0.20)  # bottom albedo of pale sand
+GRAVITY = 9.81  # m/s^2: the waves' restoring acceleration (and the things that ride them)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ from functools import lru_cache
 
 import numpy as np
 
-G = 9.81  # m/s^2
+from ...scene.water import GRAVITY
+
 K_M = 370.0  # rad/m: wavenumber of the gravity-capillary phase-speed minimum
 C_M = 0.23  # m/s: phase speed at K_M
 BAND0 = 0.01  # m: shortest wavelength of band 0
@@ -32,7 +33,7 @@ FULLY_DEVELOPED = 0.84  # inverse wave age of a fully developed sea
 def phase_speed(k):
     """Phase speed (m/s) of gravity-capillary waves of wavenumber ``k`` (rad/m), deep water."""
     k = np.asarray(k, np.float64)
-    return np.sqrt(G / k * (1.0 + (k / K_M) ** 2))
+    return np.sqrt(GRAVITY / k * (1.0 + (k / K_M) ** 2))
 
 
 def friction_velocity(wind: float) -> float:
@@ -53,7 +54,7 @@ def curvature_spectrum(k, wind: float, omega: float = FULLY_DEVELOPED):
     u = max(float(wind), 0.1)
     om = min(max(float(omega), FULLY_DEVELOPED), 5.0)
     ustar = friction_velocity(u)
-    k0 = G / u ** 2
+    k0 = GRAVITY / u ** 2
     kp = k0 * om ** 2
     cp = float(phase_speed(kp))
     c = phase_speed(k)
@@ -83,7 +84,7 @@ def spreading_delta(k, wind: float, omega: float = FULLY_DEVELOPED):
     u = max(float(wind), 0.1)
     om = min(max(float(omega), FULLY_DEVELOPED), 5.0)
     ustar = friction_velocity(u)
-    cp = float(phase_speed(G / u ** 2 * om ** 2))
+    cp = float(phase_speed(GRAVITY / u ** 2 * om ** 2))
     c = phase_speed(k)
     a0 = math.log(2.0) / 4.0
     am = 0.13 * ustar / C_M
@@ -144,4 +145,4 @@ def whitecap_fraction(wind: float) -> float:
 def peak_wavelength(wind: float, omega: float = FULLY_DEVELOPED) -> float:
     """Wavelength (m) of the spectral peak: ``2 pi U**2 / (g omega**2)``."""
     u = max(float(wind), 0.1)
-    return 2 * math.pi * u ** 2 / (G * max(omega, FULLY_DEVELOPED) ** 2)
+    return 2 * math.pi * u ** 2 / (GRAVITY * max(omega, FULLY_DEVELOPED) ** 2)

@@ -9,7 +9,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from ...scene.water import WaterParams
+from ...scene.water import GRAVITY, WaterParams
 from .base import LAYERS, SLOPE_NU, uniforms
 from .geometry import RESOLVE
 from .sky import norm_ppf
@@ -156,7 +156,6 @@ def slope_pdf(du, dc, var_u, var_c, nu: float = SLOPE_NU):
     return (1.0 + q) ** (-(nu + 2.0) / 2.0) / (2 * math.pi * np.sqrt(su2 * sc2))
 
 
-GRAVITY = 9.81  # m/s^2
 CAPILLARITY = 7.28e-5  # m^3/s^2: surface tension over density of sea water
 
 
