@@ -59,8 +59,8 @@ def test_bench_in_memory_416(benchmark, machine, default_generator):
             default_generator.render(next(counter))
 
     benchmark.pedantic(batch, rounds=2, iterations=1)
-    # 60-67/s at rest with the water of issue 19; the floors are a third of the figures
-    assert _report(benchmark, machine, "memory_416", n) > machine.floor(20)
+    # 60-67/s at rest with the water of issue 19; the floors are a quarter of the figures
+    assert _report(benchmark, machine, "memory_416", n) > machine.floor(15)
 
 
 def test_bench_disk_416_two_workers(benchmark, machine, default_generator, tmp_path):
@@ -68,7 +68,7 @@ def test_bench_disk_416_two_workers(benchmark, machine, default_generator, tmp_p
     n = 1000
     config = GeneratorConfig.from_mapping({"n": n}, default_generator.config)
     _time_runs(benchmark, config, default_generator, tmp_path, rounds=1)
-    assert _report(benchmark, machine, "disk_416", n) > machine.floor(30)  # 95/s at rest
+    assert _report(benchmark, machine, "disk_416", n) > machine.floor(24)  # 95/s at rest
 
 
 def test_bench_disk_full_resolution(benchmark, machine, sprites_dir, tmp_path):
@@ -77,7 +77,7 @@ def test_bench_disk_full_resolution(benchmark, machine, sprites_dir, tmp_path):
     config = GeneratorConfig(n=n, width=5472, height=3648)
     gen = Generator(config, sprites_dir, progress=False)
     _time_runs(benchmark, config, gen, tmp_path, rounds=1)
-    assert _report(benchmark, machine, "disk_full", n) > machine.floor(0.33)  # 1.0/s at rest
+    assert _report(benchmark, machine, "disk_full", n) > machine.floor(0.25)  # 1.0/s at rest
 
 
 def _time_runs(benchmark, config: GeneratorConfig, gen: Generator, tmp_path: Path,

@@ -56,4 +56,4 @@ def test_bench_dataloader_416_two_workers(benchmark, machine, sprites_dir, image
     print(f"\nSyntheticDetection, 2-worker DataLoader, 416x416, {image_dtype}: {rate:.0f} "
           f"images/s (target {TARGET:.0f}; this machine {slowdown:.2f}x slower than the "
           "reference)")
-    assert rate > machine.floor(30)  # 85-98/s at rest
+    assert rate > machine.floor(20)  # 85-98/s at rest

@@ -54,6 +54,6 @@ def test_bench_video_to_disk(benchmark, machine, sprites_dir, tmp_path, size, se
     print(f"\nvideo {w}x{h}: {rate:.1f} frames/s, stills {still_rate:.1f} images/s "
           f"(ratio {rate / still_rate:.2f})")
     machine.measure_after()
-    assert rate > machine.floor(12.0 if w < 1000 else 1.0)  # 35-41/s and 2.8-3.1/s at rest
+    assert rate > machine.floor(9.0 if w < 1000 else 0.75)  # 35-41/s and 2.8-3.1/s at rest
     assert (tmp_path / "v0" / "sdcomp-0000" / "gt" / "gt.txt").exists()
     assert Path(tmp_path / "v0" / "video.json").exists()
