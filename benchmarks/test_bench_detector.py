@@ -14,7 +14,6 @@ import json
 import time
 
 import pytest
-import torch
 
 from sdcomp.bench.cli import main
 from sdcomp.bench.datasets import CacheOptions, FieldSpec, field_test
@@ -38,16 +37,8 @@ CPU_TRAIN = TrainConfig(backbone="mobilenet_v3-fpn", optimizer="sgd", lr=0.01,
 CPU_CELL = Cell(10, "mixed", 626)
 
 
-@pytest.fixture()
-def one_thread():
-    """One torch thread: on a loaded 2-core machine two threads are many times slower."""
-    n = torch.get_num_threads()
-    yield
-    torch.set_num_threads(n)
-
-
 @pytest.mark.slow
-def test_smoke_grid_time(benchmark, machine, sprites_dir, tmp_path, one_thread):
+def test_smoke_grid_time(benchmark, machine, sprites_dir, tmp_path, one_torch_thread):
     """Wall time of the smoke grid in a fresh folder (what it makes is checked in CI by
     tests/test_bench_smoke.py) and of a second run that skips every cell."""
     out = tmp_path / "r"
@@ -78,8 +69,7 @@ def test_smoke_grid_time(benchmark, machine, sprites_dir, tmp_path, one_thread):
 
 
 @pytest.mark.slow
-def test_cpu_mobilenet_learns(benchmark, sprites_dir, tmp_path, one_thread):
-    torch.set_num_threads(1)
+def test_cpu_mobilenet_learns(benchmark, sprites_dir, tmp_path, one_torch_thread):
     grid = GridSpec("cpu", tables=(1,), train=CPU_TRAIN, field=FieldSpec(n=100))
     cache = CacheOptions(tmp_path / "datasets", sprites_dir, 2, False)
     ctx = RunContext(tmp_path / "r", cache, "cpu", False, 8)
