@@ -79,7 +79,7 @@ class Sample:
 class Generator:
     """Renders the images of ``config``. Sprite atlases are loaded from ``sprites_dir`` or
     built there first, once: one per mesh, and each variant of a search-and-rescue kind is a
-    mesh (the BlueROV2's takes a few seconds; all five kinds' 52 about a minute or two on
+    mesh (the BlueROV2's takes a few seconds; all five kinds' 60 about a minute or two on
     2 cores; see :mod:`sdcomp.atlas.builtin`)."""
 
     def __init__(self, config: GeneratorConfig, sprites_dir: str | Path = DEFAULT_SPRITES,

@@ -98,8 +98,9 @@ def test_water_columns_follow_lee_and_fresnel(gen):
     assert math.hypot(*down.sun_dir[:2]) == pytest.approx(sin_i / N_WATER, rel=1e-6)
 
 
-def _column(k: float) -> WaterColumn:
+def _column(k: float, k_img: float | None = None) -> WaterColumn:
     return WaterColumn(np.full(3, k, np.float32), np.full(3, k, np.float32),
+                       np.full(3, k if k_img is None else k_img, np.float32),
                        np.array([0.02, 0.03, 0.04], np.float32),
                        np.array([0.01, 0.01, 0.01], np.float32), 0.54,
                        np.array([0, 0, 1.0]), np.ones(3, np.float32))
@@ -130,6 +131,36 @@ def test_submerged_light_is_beer_lambert_through_the_column():
     wet = 0.54 * 0.2 + 0.01
     np.testing.assert_allclose(out[0, 1], 0.5 * 0.3 + 0.5 * wet, rtol=1e-4)
     assert weight[0, 1] == pytest.approx(1.0)
+
+
+def test_scattered_light_veils_the_image_and_keeps_its_brightness():
+    """In water that scatters (beam attenuation above the diffuse one), a submerged uniform
+    body is as bright as the diffuse attenuation says (the scattered light still arrives),
+    its detail fades with the image's attenuation, and the mask weight is the image's
+    share ``exp(-k_img d)``; a thin submerged limb loses the scattered light that spreads
+    beyond it."""
+    n = 64
+    yy, xx = np.mgrid[0:n, 0:n]
+    checker = ((yy // 2 + xx // 2) % 2).astype(np.float32)[..., None] * np.ones(3, np.float32)
+    flat = np.full((n, n, 3), 0.5, np.float32)
+    depth = np.full((n, n), 0.5, np.float32)
+    alpha = np.ones((n, n), np.float32)
+    col = _column(0.5, k_img=4.0)
+    out, weight = submerge(flat, flat, alpha, depth, col, pitch_m=0.05, blur_per_metre=0.0)
+    t_obj, t_img, t_col = math.exp(-0.25), math.exp(-2.0), math.exp(-0.25)
+    want = 0.54 * 0.5 * t_obj + np.array([0.02, 0.03, 0.04]) * (1 - t_col) + 0.01
+    np.testing.assert_allclose(out[n // 2, n // 2], want, rtol=1e-3)
+    assert weight[n // 2, n // 2] == pytest.approx(t_img * float(LUMA.sum()), rel=1e-4)
+    clear, _ = submerge(checker, checker, alpha, depth, _column(0.5), pitch_m=0.05,
+                        blur_per_metre=0.0)
+    murky, _ = submerge(checker, checker, alpha, depth, col, pitch_m=0.05, blur_per_metre=0.0)
+    inner = (slice(16, 48), slice(16, 48), 1)
+    assert murky[inner].std() < 0.25 * clear[inner].std()
+    assert murky[inner].mean() == pytest.approx(clear[inner].mean(), rel=0.02)
+    limb = np.zeros((n, n), np.float32)
+    limb[:, 30:34] = 1.0  # 4 px (20 cm) wide
+    thin, _ = submerge(flat, flat, limb, depth, col, pitch_m=0.05, blur_per_metre=0.0)
+    assert thin[n // 2, 31, 1] < 0.6 * out[n // 2, n // 2, 1]
 
 
 def test_submerged_parts_blur_with_depth():
@@ -320,10 +351,11 @@ def test_an_object_is_brighter_in_sun_than_under_overcast_relative_to_its_water(
 def test_deeper_objects_fade_into_the_water(gen):
     """The same object drawn deeper in murky water: fewer mask pixels and closer to the
     water's colour. (In clearer water a bright object exposed for the dark water around it
-    stays clipped white down to a metre: as in real footage.)"""
-    water = _water("turbid", 0.5, wind=1.0)
+    stays clipped white down to a metre: as in real footage. At turbidity 0.2 the image's
+    beam attenuation is about 15 per metre: a few centimetres of depth tell.)"""
+    water = _water("turbid", 0.2, wind=1.0)
     prev_area, prev_contrast = None, None
-    for draft in (0.0, 0.1, 0.2, 0.35):
+    for draft in (0.0, 0.04, 0.08, 0.14):
         f = gen.render_scene(_scene(gen, [_rov(draft=draft)], water),
                              AnnotationRule(1, amodal=True))
         img = f.image.astype(np.float32)

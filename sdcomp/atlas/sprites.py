@@ -9,7 +9,7 @@ box-filtered from the atlas resolution, so that any level can be relit and then 
 without dark fringes. Levels are made on first use and kept: the small ones (what a
 416-pixel image needs) per source; the large ones (levels 0 and 1, for full-resolution
 frames) in one cache shared by every source of the process, bounded in bytes
-(:data:`LARGE_CACHE_BYTES`), so that a run of many meshes (the 52 search-and-rescue
+(:data:`LARGE_CACHE_BYTES`), so that a run of many meshes (the 60 search-and-rescue
 variants) holds no more of them than a run of one.
 """
 

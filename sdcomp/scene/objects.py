@@ -3,7 +3,7 @@ kinds, the asset keys (sprite names) each is drawn from, and the rules that keep
 apart.
 
 An object names a built-in mesh, a search-and-rescue kind (all its variants: ``swimmer`` is
-``swimmer-00`` ... ``swimmer-11``), a single variant, or a mesh file; its asset keys are
+``swimmer-00`` ... ``swimmer-19``), a single variant, or a mesh file; its asset keys are
 those mesh names (or the file path). A clutter kind is a search-and-rescue kind (its
 variants, as distractors: asset keys ``clutter:boat-03``) or one of the clutter-only
 meshes, ``log`` and ``foam`` (``clutter:log``). A kind is never both in one run: the
@@ -12,6 +12,8 @@ one is refused (:func:`resolve_clutter_kinds`).
 """
 
 from __future__ import annotations
+
+import functools
 
 import math
 from dataclasses import dataclass
@@ -32,7 +34,7 @@ CLUTTER_KINDS = (*DEFAULT_CLUTTER_KINDS,
 #: swimming, the BlueROV2 driving on the surface); buoys, appliances, logs, foam and mesh
 #: files drift at rest. Scaled by the config's ``under_way``.
 UNDER_WAY = {"boat": (0.5, 2.0, 12.0), "jetski": (0.6, 3.0, 15.0),
-             "swimmer": (0.4, 0.3, 1.0), "bluerov2": (0.3, 0.3, 1.5),
+             "swimmer": (0.8, 0.3, 1.0), "bluerov2": (0.3, 0.3, 1.5),
              "bluerov2-heavy": (0.3, 0.3, 1.5)}
 #: COCO supercategories of the search-and-rescue kinds (SeaDronesSee's)
 SUPERCATEGORIES = {"swimmer": "person", "boat": "boat", "jetski": "boat",
@@ -156,4 +158,17 @@ def under_way(asset: str) -> tuple[float, float, float]:
     from ``asset`` (:data:`UNDER_WAY` by its kind; (0, 0, 0) for kinds that do not
     travel)."""
     name = asset.removeprefix(CLUTTER_PREFIX)
-    return UNDER_WAY.get(library.kind_of(name) or name, (0.0, 0.0, 0.0))
+    kind = library.kind_of(name) or name
+    if kind == "swimmer" and not _swimming(name):
+        return (0.0, 0.0, 0.0)  # treading, waving, floating: drifting, not swimming
+    return UNDER_WAY.get(kind, (0.0, 0.0, 0.0))
+
+
+@functools.lru_cache(maxsize=None)
+def _swimming(name: str) -> bool:
+    """Whether the swimmer variant ``name`` (e.g. ``swimmer-02``) swims (a pose of
+    :data:`sar.swimmer.SWIMMING`); True for a name that is not a variant's."""
+    parsed = sar.parse_name(name)
+    if parsed is None:
+        return True
+    return sar.describe_variant(*parsed)["sub_type"] in sar.swimmer.SWIMMING

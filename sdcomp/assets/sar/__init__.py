@@ -29,7 +29,7 @@ from . import boat, buoy, jetski, lifesaving, swimmer
 from .common import rng_for
 
 KINDS = ("swimmer", "boat", "jetski", "life_saving_appliances", "buoy")
-VARIANTS = {"swimmer": 12, "boat": 12, "jetski": 8, "life_saving_appliances": 10, "buoy": 10}
+VARIANTS = {"swimmer": 20, "boat": 12, "jetski": 8, "life_saving_appliances": 10, "buoy": 10}
 
 _MODULES: dict[str, ModuleType] = {
     "swimmer": swimmer, "boat": boat, "jetski": jetski, "life_saving_appliances": lifesaving,

@@ -2,7 +2,8 @@
 
 Poses (``params["pose"]["name"]``):
 
-- ``tread``: upright, treading water, hands sculling at the surface; mouth at the surface.
+- ``tread``: upright, treading water, hands sculling at the surface; the waterline at the
+  neck or through the shoulders (at the chest in a life jacket).
 - ``wave``: upright, one arm raised straight up (the distress wave); neck above water.
 - ``distress``: instinctive drowning response: upright, head tilted back, arms pressing
   sideways at the surface; only the face above water.
@@ -11,10 +12,14 @@ Poses (``params["pose"]["name"]``):
 - ``breast``: breaststroke, body inclined 55-70 degrees, head up, arms sweeping, frog legs.
 - ``back``: floating on the back, arms spread or at the sides, face and chest awash.
 
-The whole body is modelled (the renderer shows submerged parts through the water). The
-waterline follows the pose (head-referenced), not a buoyancy balance: a swimmer holds the head
-up by effort. Outfits: swimwear, wetsuits (full or shorty), clothes (a person overboard), each
-optionally with a foam life vest or an inflated yoke; hair styles or a swim cap.
+The whole body is modelled (the renderer shows submerged parts through the water, which in
+coastal and turbid water leaves little of what lies deeper than a few decimetres). The
+waterline follows the pose (head- or shoulder-referenced), not a buoyancy balance: a swimmer
+holds the head up by effort, a life jacket lifts the chest. Poses are weighted as search-and-
+rescue footage shows people in the water (:data:`POSE_CYCLE`: mostly upright and still).
+Outfits, all wet (darker, :data:`WET`): dark wetsuits most, swimwear, clothes (a person
+overboard), shorties; a foam life jacket or an inflated yoke on about a quarter; wet hair or,
+on a few, a swim cap.
 """
 
 from __future__ import annotations
@@ -31,8 +36,30 @@ from .person import Body, Outfit, Pose, build_person
 
 POSES = ("tread", "wave", "crawl", "breast", "back", "distress")
 SUB_TYPES = POSES
+#: the pose of variant ``v`` is ``POSE_CYCLE[v % len(POSE_CYCLE)]``: weighted as people in
+#: the water are seen in search-and-rescue footage, mostly upright and still (waiting to be
+#: picked up: treading water 40 %, waving 10 %, in distress 5 %), some floating on the back
+#: (15 %), the rest swimming (crawl 15 %, breaststroke 15 %)
+POSE_CYCLE = ("tread", "back", "crawl", "tread", "wave", "breast", "tread", "distress",
+              "tread", "crawl", "back", "tread", "breast", "wave", "tread", "back", "crawl",
+              "tread", "breast", "tread")
+#: the poses that swim (under way); the others drift
+SWIMMING = ("crawl", "breast")
 OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
+#: outfits as drawn: dark full wetsuits most (open-water swimmers, surfers, divers and the
+#: people SAR exercises put in the water), then swimwear, a person overboard in clothes, a
+#: shorty
+OUTFIT_DRAW = ("wetsuit", "wetsuit", "wetsuit", "wetsuit", "swimwear", "swimwear", "clothes",
+               "clothes", "shorty")
+#: hair as drawn: wet hair mostly, a swim cap on one in eight
 HAIR = ("short", "long", "bald", "cap")
+HAIR_DRAW = ("short", "short", "short", "long", "long", "long", "bald", "cap")
+#: wet skin and fabric are darker than dry (water fills the surface's pores and fibres and
+#: cuts its diffuse reflectance; Lekner & Dorf 1988): albedo factor of wet clothing and skin
+WET = 0.8
+#: metres an upright swimmer in a life jacket floats higher than without (the jacket's
+#: 70-150 N of buoyancy lifts the shoulders out: ISO 12402)
+VEST_LIFT = 0.08
 
 
 def _dir(rng: np.random.Generator, v, deg: float = 10.0) -> list[float]:
@@ -76,9 +103,9 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
                  pitch=round(float(rng.uniform(5, 20)), 1),
                  head_pitch=round(float(rng.uniform(-12, 5)), 1),
                  head_yaw=round(float(rng.uniform(-30, 30)), 1),
-                 water="chin", water_offset=round(float(
-                     rng.uniform(-0.02, 0.03) if name == "tread" else rng.uniform(-0.09, -0.03)),
-                     3))
+                 water="chin" if name == "wave" else "shoulders",
+                 water_offset=round(float(rng.uniform(-0.06, 0.02) if name == "tread"
+                                          else rng.uniform(-0.09, -0.03)), 3))
     elif name == "distress":
         p.update(arms=_sym(rng, (0.15, 0.95, 0.0), (0.25, 0.9, -0.15)), legs=legs_hang,
                  feet=feet_pointed, pitch=round(float(rng.uniform(-5, 8)), 1),
@@ -133,43 +160,52 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
     return p
 
 
+def _wet(rgb) -> tuple[int, int, int]:
+    """``rgb`` (sRGB 0-255) darkened as wet (:data:`WET`, applied in linear light)."""
+    lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * WET
+    r, g, b = (int(v) for v in np.clip(np.rint(255.0 * lin ** (1 / 2.2)), 0, 255))
+    return r, g, b
+
+
 def _outfit(rng: np.random.Generator, pose: str) -> dict:
-    """Colours (sRGB lists) of every part, hair and vest; JSON-able."""
+    """Colours (sRGB lists) of every part, hair and vest, all wet; JSON-able."""
     tone = int(rng.integers(len(palette.SKIN_MONK)))
-    skin = jitter(palette.skin(tone), rng, 0.04)
-    kind = pick(rng, ("swimwear", "swimwear", "wetsuit", "shorty", "clothes"))
+    skin = _wet(jitter(palette.skin(tone), rng, 0.04))
+    kind = pick(rng, OUTFIT_DRAW)
     c = dict.fromkeys(("chest", "hips", "upper_arm", "forearm", "hand", "thigh", "shin",
                        "foot", "neck"), skin)
     if kind == "swimwear":
-        c["hips"] = jitter(pick(rng, palette.SWIMWEAR), rng)
+        c["hips"] = _wet(jitter(pick(rng, palette.SWIMWEAR), rng))
         if rng.random() < 0.4:  # swimsuit
             c["chest"] = c["hips"]
     elif kind in ("wetsuit", "shorty"):
-        suit = jitter(pick(rng, palette.WETSUIT), rng, 0.08)
+        suit = _wet(jitter(pick(rng, palette.WETSUIT), rng, 0.08))
         parts: tuple[str, ...] = ("chest", "hips", "upper_arm", "thigh", "neck")
         if kind == "wetsuit":
-            parts += ("forearm", "shin")
+            parts += ("forearm", "shin", "foot")
         for k in parts:
             c[k] = suit
-        if kind == "wetsuit" and rng.random() < 0.5:  # coloured chest panel
-            c["chest"] = jitter(pick(rng, palette.SWIMWEAR), rng)
+        if kind == "wetsuit" and rng.random() < 0.2:  # coloured chest panel
+            c["chest"] = _wet(jitter(pick(rng, palette.SWIMWEAR), rng))
     else:
-        shirt = jitter(pick(rng, palette.SHIRTS), rng)
-        trousers = jitter(pick(rng, palette.TROUSERS), rng)
+        shirt = _wet(jitter(pick(rng, palette.SHIRTS), rng))
+        trousers = _wet(jitter(pick(rng, palette.TROUSERS), rng))
         c.update(chest=shirt, upper_arm=shirt, hips=trousers, thigh=trousers, shin=trousers)
         if rng.random() < 0.5:
             c["forearm"] = shirt
-        c["foot"] = jitter(pick(rng, palette.SHOES), rng)
-    hair_style = pick(rng, HAIR)
+        c["foot"] = _wet(jitter(pick(rng, palette.SHOES), rng))
+    hair_style = pick(rng, HAIR_DRAW)
     hair = (jitter(pick(rng, palette.SWIM_CAPS), rng) if hair_style == "cap"
             else jitter(palette.wet_hair(pick(rng, palette.HAIR)), rng))
-    vest_p = 0.5 if pose in ("tread", "back", "distress", "wave") else 0.15
+    # life jackets on about a quarter: most of those in clothes (a person overboard from a
+    # boat), some of the still ones, few swimmers
+    vest_p = {"clothes": 0.6}.get(kind, 0.25 if pose in ("tread", "back", "distress", "wave")
+                                   else 0.05)
     vest = None
     vest_style = "foam"
-    if kind == "clothes" or rng.random() < vest_p:
-        if rng.random() < 0.8 or kind == "clothes":
-            vest = jitter(pick(rng, palette.VESTS), rng)
-            vest_style = pick(rng, ("foam", "foam", "yoke"))
+    if rng.random() < vest_p:
+        vest = jitter(pick(rng, palette.VESTS), rng)
+        vest_style = pick(rng, ("foam", "foam", "yoke"))
     return {"outfit": kind, "skin_tone_mst": tone + 1, "skin": list(skin),
             "parts": {k: list(v) for k, v in c.items()},
             "hair_style": hair_style, "hair": list(hair),
@@ -178,7 +214,7 @@ def _outfit(rng: np.random.Generator, pose: str) -> dict:
 
 def draw(rng: np.random.Generator, variant: int) -> dict:
     """The drawn parameters of swimmer ``variant`` (JSON-able; metres, degrees, sRGB)."""
-    pose = POSES[variant % len(POSES)]
+    pose = POSE_CYCLE[variant % len(POSE_CYCLE)]
     female = bool(rng.random() < 0.45)
     stature = float(rng.normal(1.63, 0.06) if female else rng.normal(1.76, 0.07))
     stature = float(np.clip(stature, 1.50, 1.95))
@@ -218,5 +254,9 @@ def make(params: dict, name: str) -> ColoredMesh:
     painter = Painter()
     solid, joints = build_person(painter, body, _to_pose(pose), outfit)
     back = max(joints[k][2] for k in ("pelvis", "neck", "shoulder_l", "shoulder_r")) + 0.10
-    ref = {"chin": joints["chin"][2], "nose": joints["nose"][2], "back": back}[pose["water"]]
-    return painter.finish(solid, ref + pose["water_offset"], name)
+    shoulders = max(joints["shoulder_l"][2], joints["shoulder_r"][2])
+    ref = {"chin": joints["chin"][2], "nose": joints["nose"][2], "back": back,
+           "shoulders": shoulders}[pose["water"]]
+    # an upright body in a life jacket floats higher: the waterline at the chest
+    lift = VEST_LIFT if params["vest"] is not None and pose["water"] == "shoulders" else 0.0
+    return painter.finish(solid, ref + pose["water_offset"] - lift, name)
