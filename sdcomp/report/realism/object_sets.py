@@ -124,6 +124,6 @@ def object_statistics(folder: str | Path, max_images: int | None = None,
     Returns:
         {category: {"count": boxes measured, stat: {"median", "p10", "p90", "n"}}} for each
         stat of :data:`.objects.STATS` (contrast, dark_share, bright_share, aspect,
-        saturation, size_px, size_m); see :func:`.objects.summarise`.
+        saturation, size_px, size_m, size_image_px); see :func:`.objects.summarise`.
     UserError for a folder that is not a dataset."""
     return measure_objects(load_generated(folder, max_images, seed), min_size).summary()

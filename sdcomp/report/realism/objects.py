@@ -5,7 +5,8 @@ For an (H, W, 3) uint8 sRGB image, the grey level is the report's luminance
 ``Y = 0.299 R + 0.587 G + 0.114 B`` (float, 0..255: OpenCV's ``BGR2GRAY`` weights without its
 rounding to integers; :func:`.patches.luminance`) and the saturation HSV's
 ``(max - min) / max`` (0..1; :func:`.patches.saturation`). A box (x, y, w, h) (pixels, COCO)
-covers columns floor(x) .. ceil(x + w) - 1 and likewise rows (:func:`.patches.boxes_mask`).
+covers columns floor(x) .. ceil(x + w) - 1 and likewise rows (as :func:`.patches.boxes_mask`,
+edges within :data:`EDGE_EPS` of a whole pixel taken as whole: YOLO's rounded fractions).
 Only boxes with ``sqrt(w h) >= min_size`` image pixels are measured. Its **surrounding
 water** is the box grown by its longer side ``max(w, h)`` on every side (clipped to the
 frame), minus every labelled box of the image (the box itself and its neighbours). Per box:
@@ -16,7 +17,10 @@ frame), minus every labelled box of the image (the box itself and its neighbours
 - ``aspect``: h / w;
 - ``saturation``: mean saturation of the box pixels;
 - ``size_px``: sqrt(w h) * 1920 / W (the size on a frame 1920 px wide);
-- ``size_m``: sqrt(w h) * the GSD at the box centre (metres), NaN where unknown.
+- ``size_m``: sqrt(w h) * the GSD at the box centre (metres), NaN where unknown;
+- ``size_image_px``: sqrt(w h) in the image's own pixels (not rescaled: the size to compare
+  where the frames are crops at one focal length, e.g. 416 px renders at the focal length of
+  1920 px real frames, for which ``size_px`` would be 1920 / 416 times too large).
 
 The first three are NaN when fewer than :data:`MIN_SURROUND` surrounding pixels remain, and
 the contrast also when their std is 0. The GSD at a pixel (:func:`sea_gsd`) is the depth,
@@ -33,38 +37,50 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ...render.camera.lens import undistort
-from .patches import boxes_mask, luminance, saturation
+from .patches import luminance, saturation
 
 #: the per-box statistics, in the column order of :func:`box_statistics`
 STATS = ("contrast", "dark_share", "bright_share", "aspect", "saturation", "size_px",
-         "size_m")
+         "size_m", "size_image_px")
 UNITS = {"contrast": "surrounding std", "dark_share": "0..1", "bright_share": "0..1",
          "aspect": "h / w", "saturation": "0..1", "size_px": "px at 1920 wide",
-         "size_m": "m"}
+         "size_m": "m", "size_image_px": "image px"}
 MIN_SIZE = 15.0  #: smallest sqrt(w h) measured, image pixels
 DARK_LEVELS = 25.0  #: a box pixel this many grey levels below the surrounding mean is dark
 BRIGHT_LEVELS = 40.0  #: ... this many above it is bright
 REFERENCE_WIDTH = 1920  #: size_px is sqrt(w h) on a frame this many pixels wide
 MIN_SURROUND = 16  #: fewest surrounding-water pixels for contrast and the shares
 PERCENTILES = (10, 50, 90)
+EDGE_EPS = 1e-3  #: a box edge this close to a whole pixel is on it (pixels)
 
 
 def box_slices(box: Sequence[float], shape: tuple[int, int], grow: float = 0.0
                ) -> tuple[slice, slice] | None:
     """(rows, cols) slices of the pixels box (x, y, w, h) covers (floor(x) .. ceil(x + w) - 1,
-    at least one pixel, as :func:`.patches.boxes_mask`) after growing it by ``grow`` pixels
-    on every side, clipped to an image of ``shape`` (H, W); None when nothing is left."""
+    at least one pixel, edges within :data:`EDGE_EPS` of a whole pixel rounded to it) after
+    growing it by ``grow`` pixels on every side, clipped to an image of ``shape`` (H, W);
+    None when nothing is left."""
     bx, by, bw, bh = (float(v) for v in box[:4])
     if not all(math.isfinite(v) for v in (bx, by, bw, bh, grow)):
         return None
-    x0, y0 = math.floor(bx - grow), math.floor(by - grow)
-    x1 = max(math.ceil(bx + bw + grow), math.floor(bx) + 1)
-    y1 = max(math.ceil(by + bh + grow), math.floor(by) + 1)
+    x0, y0 = math.floor(bx - grow + EDGE_EPS), math.floor(by - grow + EDGE_EPS)
+    x1 = max(math.ceil(bx + bw + grow - EDGE_EPS), x0 + 1)
+    y1 = max(math.ceil(by + bh + grow - EDGE_EPS), y0 + 1)
     h, w = shape
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
     if x1 <= x0 or y1 <= y0:
         return None
     return slice(y0, y1), slice(x0, x1)
+
+
+def labelled_mask(shape: tuple[int, int], boxes: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels any of the (k, 4) boxes covers (:func:`box_slices`)."""
+    out = np.zeros(shape, bool)
+    for box in boxes:
+        sl = box_slices(box, shape)
+        if sl is not None:
+            out[sl] = True
+    return out
 
 
 def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]],
@@ -92,7 +108,7 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
     g = np.broadcast_to(np.asarray(np.nan if gsd is None else gsd, np.float64), (k,))
     y = luminance(rgb)
     s = saturation(rgb)
-    labelled = boxes_mask((h, w), b)
+    labelled = labelled_mask((h, w), b)
     for i, (bw, bh) in enumerate(b[:, 2:]):
         size = math.sqrt(bw * bh) if bw > 0 and bh > 0 else float("nan")
         inner = box_slices(b[i], (h, w)) if math.isfinite(size) and size >= min_size else None
@@ -103,6 +119,7 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         out[i, 4] = float(s[inner].mean(dtype=np.float64))
         out[i, 5] = size * REFERENCE_WIDTH / w
         out[i, 6] = size * g[i] if math.isfinite(g[i]) and g[i] > 0 else np.nan
+        out[i, 7] = size
         window = box_slices(b[i], (h, w), grow=max(bw, bh))
         assert window is not None  # it holds the box
         water = y[window][~labelled[window]].astype(np.float64)
