@@ -88,6 +88,8 @@ def test_other_boxes_are_not_surrounding_water():
     assert after[0, COL["dark_share"]] == 1
     unlabelled = stats_of(img, boxes[:1])  # the neighbour counts as water
     assert unlabelled["contrast"] > 0.5 * before[0, COL["contrast"]]
+    kept = box_statistics(img, boxes, exclude_others=False)  # ... as it does here
+    assert kept[0, COL["contrast"]] == unlabelled["contrast"]
 
 
 def test_window_is_grown_by_the_longer_side_and_clipped():

@@ -71,9 +71,10 @@ def frame_box_gsd(frame: Frame, boxes: np.ndarray) -> tuple[np.ndarray, str]:
     return np.full(k, np.nan), "unknown"
 
 
-def measure_objects(frames: FrameSet, min_size: float = MIN_SIZE, log=None) -> ObjectTable:
-    """Measure every labelled box of a set (:func:`.objects.box_statistics`); frames
-    without boxes or categories contribute nothing but are counted as read."""
+def measure_objects(frames: FrameSet, min_size: float = MIN_SIZE, log=None,
+                    exclude_others: bool = True) -> ObjectTable:
+    """Measure every labelled box of a set (:func:`.objects.box_statistics`, with
+    ``exclude_others``); frames without boxes contribute nothing but are counted as read."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
     vals, cats, idx, bxs, gsds = [], [], [], [], []
@@ -94,7 +95,7 @@ def measure_objects(frames: FrameSet, min_size: float = MIN_SIZE, log=None) -> O
         names += ["?"] * (len(boxes) - len(names))
         g, why = frame_box_gsd(frame, boxes)
         how[why] = how.get(why, 0) + 1
-        v = box_statistics(rgb, boxes, g, min_size)
+        v = box_statistics(rgb, boxes, g, min_size, exclude_others)
         keep = np.flatnonzero(~np.isnan(v).all(axis=1))
         vals.append(v[keep])
         cats += [str(names[j]) for j in keep]
@@ -113,7 +114,8 @@ def _stack(parts: list, empty) -> np.ndarray:
 
 
 def object_statistics(folder: str | Path, max_images: int | None = None,
-                      min_size: float = MIN_SIZE, seed: int = 0) -> dict[str, dict]:
+                      min_size: float = MIN_SIZE, seed: int = 0,
+                      exclude_others: bool = True) -> dict[str, dict]:
     """Per-category object statistics of a generated dataset folder.
 
     Args:
@@ -121,9 +123,12 @@ def object_statistics(folder: str | Path, max_images: int | None = None,
         max_images: at most this many images, a seeded random choice (None: all).
         min_size: boxes with sqrt(w h) below this many pixels are left out.
         seed: seed of the image choice.
+        exclude_others: True (the definition): the other labelled boxes in a box's window
+            are not its surrounding water; False: they are (only the box itself is not).
     Returns:
         {category: {"count": boxes measured, stat: {"median", "p10", "p90", "n"}}} for each
         stat of :data:`.objects.STATS` (contrast, dark_share, bright_share, aspect,
         saturation, size_px, size_m, size_image_px); see :func:`.objects.summarise`.
     UserError for a folder that is not a dataset."""
-    return measure_objects(load_generated(folder, max_images, seed), min_size).summary()
+    return measure_objects(load_generated(folder, max_images, seed), min_size,
+                           exclude_others=exclude_others).summary()

@@ -84,8 +84,8 @@ def labelled_mask(shape: tuple[int, int], boxes: np.ndarray) -> np.ndarray:
 
 
 def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]],
-                   gsd: np.ndarray | float | None = None, min_size: float = MIN_SIZE
-                   ) -> np.ndarray:
+                   gsd: np.ndarray | float | None = None, min_size: float = MIN_SIZE,
+                   exclude_others: bool = True) -> np.ndarray:
     """The statistics of :data:`STATS` of each box of one image.
 
     Args:
@@ -95,6 +95,8 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         gsd: metres per pixel at each box centre, (k,) float or one float for all; None or
             NaN: unknown (``size_m`` NaN).
         min_size: boxes with sqrt(w h) below this many pixels are not measured.
+        exclude_others: False: the other boxes in a box's window count as its water (only
+            the box itself is left out); True (the definition): they do not.
     Returns:
         (k, len(STATS)) float64, a row per box in the order of ``boxes``; a box not measured
         (too small, not finite or outside the image) has a row of NaN.
@@ -122,7 +124,12 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         out[i, 7] = size
         window = box_slices(b[i], (h, w), grow=max(bw, bh))
         assert window is not None  # it holds the box
-        water = y[window][~labelled[window]].astype(np.float64)
+        if exclude_others:
+            water = y[window][~labelled[window]].astype(np.float64)
+        else:
+            own = np.zeros(labelled.shape, bool)
+            own[inner] = True
+            water = y[window][~own[window]].astype(np.float64)
         if water.size < MIN_SURROUND:
             continue
         mean, std = float(water.mean()), float(water.std())
