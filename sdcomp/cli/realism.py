@@ -4,6 +4,7 @@ dataset, against the targets and, given them, the user's real frames
 
     sdcomp realism DIR [--real FRAMES [--real-labels F|DIR] [--real-gsd M | --real-fov DEG]]
                        [--out DIR/realism] [--max-images 500] [--match-gsd] [--cnn]
+    sdcomp realism DIR --objects [--real FRAMES --real-labels F|DIR] [--min-size 15]
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from pathlib import Path
 
 from ..errors import run_cli
 from ..report.realism.markdown import row_text
+from ..report.realism.object_report import fmt, objects_report
+from ..report.realism.objects import MIN_SIZE
 from ..report.realism.patches import METRICS
 from ..report.realism.report import MAX_IMAGES, realism_report
 from ..util.log import add_verbosity_flags, setup_logging
@@ -31,7 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "synthetic patch classifier whose cross-validated accuracy is the realism "
                     "number (0.5 = indistinguishable).",
         epilog="Writes OUT/report.md, report.json, spectrum.png, histograms.png, crops.png. "
-               "Definitions: docs/realism.md.")
+               "With --objects instead (only the object part): OUT/objects.md, objects.json "
+               "and object_crops.png. Definitions: docs/realism.md.")
     p.add_argument("dataset", metavar="DIR", help="generated dataset folder (generate --out)")
     p.add_argument("--real", metavar="FRAMES", help="real frames: a folder (or file) of photos "
                    "and videos, or a folder with an images/ subfolder (default: none: "
@@ -61,6 +65,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--exclude-clutter", action="store_true", help="also keep the unannotated "
                    "floating clutter (boats, buoys, logs, foam) out of empty water (default: "
                    "off: only annotated objects are)")
+    p.add_argument("--objects", action="store_true", help="instead of the water report, "
+                   "per-object appearance: per labelled box its contrast against the water "
+                   "around it, shares of dark and bright pixels, height / width, saturation "
+                   "and size (image px, px at 1920 wide, metres where the GSD is known), "
+                   "summarised per category, generated vs real (--real needs --real-labels "
+                   "then; --match-gsd, --folds, --cnn and --exclude-clutter do not apply); "
+                   "writes objects.md, objects.json, object_crops.png (default: off)")
+    p.add_argument("--min-size", metavar="PX", type=float, default=MIN_SIZE, help="with "
+                   "--objects: leave out boxes with sqrt(w h) below PX image pixels "
+                   "(default: %(default)g)")
     add_verbosity_flags(p)
     return p
 
@@ -68,6 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     log = setup_logging(args.quiet, args.verbose)
+    if args.objects:
+        return _objects(args, log)
     r = realism_report(args.dataset, args.real, args.out, args.real_labels, args.real_gsd,
                        args.real_fov, args.max_images, args.seed, args.folds, args.cnn,
                        args.exclude_clutter, args.match_gsd, log=log.debug)
@@ -88,6 +104,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = Path(args.out) if args.out else Path(args.dataset) / "realism"
     log.info(f"targets: {sum(t['ok'] for t in judged)}/{len(judged)} pass; report: "
              f"{out / 'report.md'}")
+    return 0
+
+
+def _objects(args, log) -> int:
+    """``--objects``: the per-object report, a line per category on the terminal."""
+    r = objects_report(args.dataset, args.real, args.out, args.real_labels, args.real_gsd,
+                       args.real_fov, args.max_images, args.seed, args.min_size,
+                       log=log.debug)
+    for kind in ("generated", "real"):
+        for cat, row in (r["categories"][kind] or {}).items():
+            log.info(f"{kind} {cat} ({row['count']}): " + "; ".join(
+                f"{m} {fmt(m, row[m])}" for m in ("contrast", "dark_share", "bright_share",
+                                                   "aspect", "size_px", "size_m")))
+    out = Path(args.out) if args.out else Path(args.dataset) / "realism"
+    log.info(f"report: {out / 'objects.md'}")
     return 0
 
 

@@ -38,12 +38,7 @@ def crop_at_gsd(rgb: np.ndarray, centre: tuple[float, float], gsd_src: float | N
     """((out_px, out_px, 3) uint8 crop of (H, W, 3) uint8 ``rgb`` centred on ``centre`` (x, y
     pixels) resampled by gsd_src / gsd_target, whether it was rescaled). Outside the image is
     :data:`PAD_RGB`. With either GSD unknown (None or <= 0) the crop is at native resolution."""
-    scaled = bool(gsd_src and gsd_target and gsd_src > 0 and gsd_target > 0)
-    # output pixels per source pixel
-    scale = gsd_src / gsd_target if gsd_src and gsd_target and scaled else 1.0
-    side = max(1, int(round(out_px / scale)))
-    cx, cy = centre
-    x0, y0 = int(round(cx - side / 2)), int(round(cy - side / 2))
+    x0, y0, side, scaled = crop_window(centre, gsd_src, gsd_target, out_px)
     h, w = rgb.shape[:2]
     win = np.empty((side, side, 3), np.uint8)
     win[:] = PAD_RGB
@@ -54,6 +49,18 @@ def crop_at_gsd(rgb: np.ndarray, centre: tuple[float, float], gsd_src: float | N
         return win, scaled
     interp = cv2.INTER_AREA if side > out_px else cv2.INTER_CUBIC
     return cv2.resize(win, (out_px, out_px), interpolation=interp), scaled
+
+
+def crop_window(centre: tuple[float, float], gsd_src: float | None, gsd_target: float | None,
+                out_px: int = OUT_PX) -> tuple[int, int, int, bool]:
+    """(x0, y0, side, scaled): the source window of :func:`crop_at_gsd`, its top-left pixel
+    and side (source pixels; the crop maps it onto ``out_px``), and whether it is rescaled."""
+    scaled = bool(gsd_src and gsd_target and gsd_src > 0 and gsd_target > 0)
+    # output pixels per source pixel
+    scale = gsd_src / gsd_target if gsd_src and gsd_target and scaled else 1.0
+    side = max(1, int(round(out_px / scale)))
+    cx, cy = centre
+    return int(round(cx - side / 2)), int(round(cy - side / 2)), side, scaled
 
 
 def median_gsd(frames: FrameSet) -> float | None:

@@ -24,7 +24,7 @@ from ...errors import UserError
 from ...io.layout import load_dataset
 from ...render.footage import Source, VideoReader, list_sources, read_source
 from ...render.footage_labels import Labels, read_labels
-from ...scene.camera import CameraModel, horizon_row
+from ...scene.camera import CameraModel, camera_basis, horizon_row
 from .sea import ALTITUDE_KEY, GSD_KEY, PITCH_KEY, SeaOracle, num
 
 REAL_SKY_MARGIN = 0.05  #: fraction of the height kept clear below a real frame's horizon
@@ -38,10 +38,13 @@ class Frame:
         path: the image (or video) file; ``source`` the real frame it is (None: generated).
         group: index of the image within its set (cross-validation folds split by it).
         boxes: (x, y, w, h) pixel boxes to keep clear (objects), or None when unknown.
+        categories: the category name of each box (parallel to ``boxes``), or None.
         mask_path: the 16-bit instance-id PNG (generated sets), or None.
         meta: the image's metadata (COCO ``meta``), possibly empty.
         camera: the image's COCO ``camera`` record (intrinsics ``K`` with the lens's zoom,
-            ``dist_coeffs``, pose), possibly empty.
+            ``dist_coeffs``, pose ``R_w2c``, ``t_w2c``), possibly empty; for a real frame
+            whose meta and ``--real-fov`` give its pose, a pinhole record of that pose
+            (:func:`pinhole_record`).
         gsd: metres per pixel at the image centre, or None when unknown.
         gsd_source: where ``gsd`` comes from: "meta", "camera", "user" or "unknown".
         valid: callable (H, W) -> ((H, W) bool valid-pixel mask or None for all, how) or None.
@@ -57,6 +60,7 @@ class Frame:
     valid: Callable | None = None
     source: Source | None = None
     camera: dict = field(default_factory=dict)
+    categories: list | None = None
 
 
 @dataclass
@@ -101,15 +105,21 @@ def read_mask(path: Path) -> np.ndarray | None:
     return (m[..., 0] if m.ndim == 3 else m).astype(np.uint16, copy=False)
 
 
-def load_frame(frame: Frame) -> Loaded | None:
-    """Read a :class:`Frame`; None when its image cannot be read."""
+def frame_rgb(frame: Frame) -> np.ndarray | None:
+    """(H, W, 3) uint8 RGB of a :class:`Frame` (a video frame read from its video), None when
+    it cannot be read. Only the pixels: :func:`load_frame` also reads the mask and valid
+    pixels."""
     if frame.source is not None:
         try:
-            rgb: np.ndarray | None = read_source(frame.source, _VIDEOS, "--real")
+            return read_source(frame.source, _VIDEOS, "--real")
         except UserError:
-            rgb = None
-    else:
-        rgb = read_rgb(frame.path)
+            return None
+    return read_rgb(frame.path)
+
+
+def load_frame(frame: Frame) -> Loaded | None:
+    """Read a :class:`Frame`; None when its image cannot be read."""
+    rgb = frame_rgb(frame)
     if rgb is None:
         return None
     inst = read_mask(frame.mask_path) if frame.mask_path is not None else None
@@ -152,13 +162,16 @@ def load_generated(folder: str | Path, max_images: int | None = None, seed: int 
             continue
         meta: dict = img["meta"] if isinstance(img.get("meta"), dict) else {}
         mask = img.get("mask_file") or str(Path(img["file_name"]).with_suffix(".png"))
-        boxes = [a["bbox"] for a in e.annotations if isinstance(a.get("bbox"), (list, tuple))]
+        anns = [a for a in e.annotations if isinstance(a.get("bbox"), (list, tuple))]
+        boxes = [a["bbox"] for a in anns]
+        names = [data.categories.get(a.get("category_id"), str(a.get("category_id")))
+                 for a in anns]
         gsd = num(meta, GSD_KEY)
         camera: dict = img["camera"] if isinstance(img.get("camera"), dict) else {}
         index = int(img["id"])  # format 2: the image id is its index
         frames.append(Frame(path, 0, boxes, layout.masks / mask, meta, gsd,
                             "meta" if gsd else "unknown", oracle.bind(index, meta, camera),
-                            camera=camera))
+                            camera=camera, categories=names))
     if not frames:
         raise UserError(f"{str(layout.root)!r} has no readable images listed in its "
                         f"annotations; give the --out folder of a finished `sdcomp generate`")
@@ -200,7 +213,10 @@ def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | N
             continue
         boxes = fl.pixels(s.width, s.height).tolist() if fl is not None else (
             [] if lab is not None else None)
-        frames.append(Frame(s.path, 0, boxes, None, dict(fl.meta) if fl else {}, source=s))
+        names = ([lab.categories.get(int(c), str(c)) for c in fl.categories]
+                 if fl is not None and lab is not None else ([] if lab is not None else None))
+        frames.append(Frame(s.path, 0, boxes, None, dict(fl.meta) if fl else {}, source=s,
+                            categories=names))
     if lab is not None and not frames:
         raise UserError(f"--real-labels {labels}: none of the {len(sources)} frames of "
                         f"{path} is listed in it (matched by file name without extension; "
@@ -220,7 +236,8 @@ def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | N
 
 def _real_geometry(frame: Frame, gsd: float | None, fov: float | None) -> None:
     """Set a real frame's GSD (``gsd``, else its meta with a camera of ``fov``) and, for an
-    oblique frame of known pitch and ``fov``, its sky mask."""
+    oblique frame of known pitch and ``fov``, its sky mask; with a known altitude too, its
+    camera record (:func:`pinhole_record`)."""
     s = frame.source
     assert s is not None
     alt, pitch = num(frame.meta, ALTITUDE_KEY), num(frame.meta, PITCH_KEY)
@@ -229,11 +246,25 @@ def _real_geometry(frame: Frame, gsd: float | None, fov: float | None) -> None:
     if fov is None or pitch is None or not 0 < pitch <= 90:
         return
     model = CameraModel(s.width, s.height, fov, s.width, s.height)
+    if alt is not None and alt > 0:
+        frame.camera = pinhole_record(model, alt, pitch)
     if gsd is None and alt:
         frame.gsd = alt / math.sin(math.radians(pitch)) / model.fx
         frame.gsd_source = "camera"
     if pitch < 90:
         frame.valid = _real_sky(fov, pitch)
+
+
+def pinhole_record(model: CameraModel, altitude: float, pitch: float) -> dict:
+    """A COCO ``camera`` record as sdcomp writes one (``K`` in OpenCV's convention, no
+    distortion, ``R_w2c`` rows right / down / forward in world axes, ``t_w2c`` metres) of a
+    pinhole ``model`` at ``altitude`` metres above the sea, ``pitch`` degrees below the
+    horizon, heading 0."""
+    rot = camera_basis(pitch, 0.0)
+    t = -rot @ np.array([0.0, 0.0, float(altitude)])
+    return {"K": [[model.fx, 0.0, model.width / 2 - 0.5], [0.0, model.fy, model.height / 2 - 0.5],
+                  [0.0, 0.0, 1.0]], "dist_coeffs": [0.0] * 5, "width": model.width,
+            "height": model.height, "R_w2c": rot.tolist(), "t_w2c": t.tolist()}
 
 
 def _real_sky(fov: float, pitch: float) -> Callable:
