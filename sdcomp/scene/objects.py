@@ -52,14 +52,22 @@ def _positive(v: Any) -> bool:
 @dataclass(frozen=True)
 class ObjectSpec:
     """An object of interest: a built-in mesh or kind name (a kind stands for all its
-    variants) or a mesh file, its COCO category, and its
-    ``weight``: how often it is drawn relative to the other objects (class proportions)."""
+    variants) or a mesh file, its COCO category, its ``weight``: how often it is drawn
+    relative to the other objects (class proportions), and its ``frame``: the part of the
+    image its centre is placed in, uniformly, as fractions of the width and height
+    ``(u0, v0, u1, v1)`` (None: anywhere in the frame). Where a camera operator frames the
+    objects they look for (swimmers near the centre) and the rest lie in the background
+    (boats high in an oblique frame, far away), the frame sets how far objects are and so
+    their pixel sizes."""
 
     mesh: str = "bluerov2"
     category: str = ""
     weight: float = 1.0
+    frame: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.frame is not None:
+            object.__setattr__(self, "frame", _frame(self.frame))
         if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
             raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
                                          "bluerov2-heavy, swimmer, boat, jetski, "
@@ -77,16 +85,30 @@ class ObjectSpec:
                                            f"name")
 
 
+def _frame(v: Any) -> tuple[float, float, float, float]:
+    """``v`` as a frame part ``(u0, v0, u1, v1)``: four numbers in [0, 1], u0 < u1 and
+    v0 < v1 (SettingError otherwise)."""
+    try:
+        u0, v0, u1, v1 = (float(x) for x in v)
+    except (TypeError, ValueError):
+        u0 = v0 = u1 = v1 = math.nan
+    if not (0.0 <= u0 < u1 <= 1.0 and 0.0 <= v0 < v1 <= 1.0):
+        raise SettingError("frame", f"{{name}} {v!r} must be four fractions of the image "
+                                    f"[u0, v0, u1, v1] with 0 <= u0 < u1 <= 1 and "
+                                    f"0 <= v0 < v1 <= 1 (e.g. [0.3, 0.3, 0.8, 0.9])")
+    return (u0, v0, u1, v1)
+
+
 def object_spec(o: Any) -> ObjectSpec:
-    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight} table
-    (UserError for another key, SettingError for a bad value)."""
+    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight, frame}
+    table (UserError for another key, SettingError for a bad value)."""
     if isinstance(o, str):
         return ObjectSpec(o)
     if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category", "weight"}
+        unknown = set(o) - {"mesh", "category", "weight", "frame"}
         if unknown:
             raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh, category and weight")
+                            f"use mesh, category, weight and frame")
         return ObjectSpec(**o)
     if not isinstance(o, ObjectSpec):
         raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")

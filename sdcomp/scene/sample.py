@@ -168,7 +168,8 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
         k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
-        p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint)
+        p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
+                   config.objects[k].frame)
         if p is not None:
             placements.append(p)
     n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
@@ -205,11 +206,13 @@ def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
 
 def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
            pose: CameraPose, shore: Shore | None, role: Role, assets: tuple[str, ...],
-           category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
-           ) -> Placement | None:
+           category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0),
+           frame: tuple[float, float, float, float] | None = None) -> Placement | None:
     """A random placement seen in the frame (possibly cut by its edge), on water; None
     when 8 tries find no such place. An object is ``assets[0]`` in ``tint``; clutter is
-    one of its kind's ``assets`` (variants), or its one mesh in a random shade."""
+    one of its kind's ``assets`` (variants), or its one mesh in a random shade. Its centre
+    lies in the image part ``frame`` (fractions (u0, v0, u1, v1)), or anywhere in the frame
+    up to :data:`EDGE_MARGIN` outside it."""
     u0, v0 = rng.random(), rng.random()
     heading = rng.uniform(0, 360)
     roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
@@ -224,9 +227,13 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
-        m = EDGE_MARGIN
-        u = (-m + (1 + 2 * m) * u0) * model.width
-        v = (-m + (1 + 2 * m) * v0) * model.height
+        if frame is None:
+            m = EDGE_MARGIN
+            u = (-m + (1 + 2 * m) * u0) * model.width
+            v = (-m + (1 + 2 * m) * v0) * model.height
+        else:
+            u = (frame[0] + (frame[2] - frame[0]) * u0) * model.width
+            v = (frame[1] + (frame[3] - frame[1]) * v0) * model.height
         hit = ground_point(model, pose, u, v)
         if hit is None:
             continue

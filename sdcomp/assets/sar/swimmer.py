@@ -46,10 +46,10 @@ POSE_CYCLE = ("tread", "back", "crawl", "tread", "wave", "breast", "tread", "dis
 #: the poses that swim (under way); the others drift
 SWIMMING = ("crawl", "breast")
 OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
-#: outfits as drawn: dark full wetsuits most (open-water swimmers, surfers, divers and the
-#: people SAR exercises put in the water), then swimwear, a person overboard in clothes, a
-#: shorty
-OUTFIT_DRAW = ("wetsuit", "wetsuit", "wetsuit", "wetsuit", "swimwear", "swimwear", "clothes",
+#: outfits as drawn: dark full wetsuits two in three (open-water swimmers, surfers, divers
+#: and the volunteers SAR exercises put in the water), then swimwear, a person overboard in
+#: clothes, a shorty, one in nine each
+OUTFIT_DRAW = ("wetsuit", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "swimwear",
                "clothes", "shorty")
 #: hair as drawn: wet hair mostly, a swim cap on one in eight
 HAIR = ("short", "long", "bald", "cap")
@@ -185,7 +185,7 @@ def _outfit(rng: np.random.Generator, pose: str) -> dict:
             parts += ("forearm", "shin", "foot")
         for k in parts:
             c[k] = suit
-        if kind == "wetsuit" and rng.random() < 0.2:  # coloured chest panel
+        if kind == "wetsuit" and rng.random() < 0.1:  # coloured chest panel
             c["chest"] = _wet(jitter(pick(rng, palette.SWIMWEAR), rng))
     else:
         shirt = _wet(jitter(pick(rng, palette.SHIRTS), rng))
