@@ -6,15 +6,11 @@ a COCO file that loads with SeaDronesSee's category ids.
 The dataset is rendered at 1920 x 1080 with the preset's camera (the same field of view:
 every pixel size is half that of the 3840 x 2160 frames, and is doubled before comparing)
 to keep the test short; the reference is its 3840 x 2160 frames, the ones with flight
-metadata. How close (200 frames; README, "Search-and-rescue objects"): altitudes and pitches
-within a few percent above the pitch floor; box sizes larger: swimmers' (60 % of the boxes)
-median 1.5-1.8 times SeaDronesSee's over seeds, the other classes' 1.2-3.8 times: the
-generator places every class anywhere in the frame, while SeaDronesSee's boats and buoys
-are mostly far-off background objects and its low flights show few objects near the drone;
-and a swimmer's mask holds its submerged body wherever the water passes more than half of
-its light (in this clear lake water, all of it: issue 19's optics), where SeaDronesSee's
-annotators box what they make out, mostly the head and shoulders. The bounds leave room for
-the draws of another seed, not for a wrong scale (twice the size fails).
+metadata. How close (200 frames): altitudes and pitches within a few percent above the pitch
+floor; box sizes per class within 1.25 times SeaDronesSee's at p10, p50 and p90 where they
+are (each class is placed where SeaDronesSee's boxes lie in the frame: swimmers near the
+centre, boats and buoys high in oblique frames); the classes that are not yet are an xfail
+with their measured ratios.
 """
 
 from __future__ import annotations
@@ -79,15 +75,30 @@ def test_altitudes_and_pitches(pair):
     assert abs(pairs[1] - pairs[0]) < 0.2, pairs  # drawn as pairs
 
 
-def test_box_sizes_per_class(pair):
+def _size_ratios(pair) -> tuple[dict, str]:
+    """Per class: the preset's box-size quantiles (0.1 ... 0.9) over SeaDronesSee's."""
     real, _, synth = pair
-    ratio = {c: quantiles(synth["size"][c]) / quantiles(real["size"][c]) for c in CLASSES}
-    why = table(real, synth)
-    swimmer = ratio["swimmer"]  # quantiles 0.1, 0.25, 0.5, 0.75, 0.9
-    assert np.all((swimmer[:3] > 1 / 2.0) & (swimmer[:3] < 2.0)), why
-    assert np.all((swimmer[3:] > 1 / 2.5) & (swimmer[3:] < 2.5)), why
-    for c in CLASSES:
-        assert 1 / 4.0 < ratio[c][2] < 4.0, (c, why)
-    pooled = [np.concatenate(list(s["size"].values())) for s in (real, synth)]
-    pooled_ratio = quantiles(pooled[1]) / quantiles(pooled[0])
-    assert np.all((pooled_ratio[1:4] > 0.5) & (pooled_ratio[1:4] < 2.0)), why
+    return ({c: quantiles(synth["size"][c]) / quantiles(real["size"][c]) for c in CLASSES},
+            table(real, synth))
+
+
+@pytest.mark.parametrize("cls", ["jetski"])
+def test_box_sizes_per_class(pair, cls):
+    """The classes whose boxes follow SeaDronesSee's within 1.25 times at p10, p50, p90."""
+    ratio, why = _size_ratios(pair)
+    r = ratio[cls][[0, 2, 4]]
+    assert np.all((r > 1 / 1.25) & (r < 1.25)), (cls, why)
+
+
+@pytest.mark.xfail(reason="measured here (200 frames, seed 0), p10/p50/p90 over "
+                          "SeaDronesSee's: swimmer 0.91/1.37/1.55, boat 1.60/1.48/2.59, "
+                          "life_saving_appliances 0.79/2.05/4.49, buoy 1.37/2.86/1.40 "
+                          "(jetski 0.87/0.93/1.13 passes above): each class is placed where "
+                          "SeaDronesSee's boxes lie in the frame, but the visible masks of "
+                          "swimmers and the near boats, appliances and buoys are still "
+                          "larger than the real boxes", strict=False)
+@pytest.mark.parametrize("cls", ["swimmer", "boat", "life_saving_appliances", "buoy"])
+def test_box_sizes_per_class_not_yet(pair, cls):
+    ratio, why = _size_ratios(pair)
+    r = ratio[cls][[0, 2, 4]]
+    assert np.all((r > 1 / 1.25) & (r < 1.25)), (cls, why)

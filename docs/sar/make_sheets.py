@@ -1,5 +1,5 @@
 """Draw docs/sar/<kind>.jpg: every variant of each search-and-rescue kind rendered by sdcomp
-at 10 m and 40 m, straight down and oblique (gimbal pitch 45 degrees), with the camera of
+at 20, 40 and 60 m, straight down and oblique (gimbal pitch 45 degrees), with the camera of
 ``--preset seadronessee`` (3840 x 2160 frames, 72.8 degrees diagonal, fx 2987 px).
 
     python docs/sar/make_sheets.py [--sprites sprites] [--out docs/sar] [KIND ...]
@@ -32,7 +32,8 @@ from sdcomp.scene.presets import preset
 from sdcomp.scene.scene import Placement, Role
 from sdcomp.scene.water import WaterParams, constituents
 
-VIEWS = ((10.0, 90.0), (10.0, 45.0), (40.0, 90.0), (40.0, 45.0))  # altitude m, pitch deg
+VIEWS = ((20.0, 90.0), (20.0, 45.0), (40.0, 90.0), (40.0, 45.0), (60.0, 90.0),
+         (60.0, 45.0))  # altitude m, pitch deg
 CELL = 200  # pixels
 TURBIDITY = 0.5
 CHL, CDOM, TSM = constituents("coastal", TURBIDITY)

@@ -14,7 +14,6 @@ one is refused (:func:`resolve_clutter_kinds`).
 from __future__ import annotations
 
 import functools
-
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -186,7 +185,7 @@ def under_way(asset: str) -> tuple[float, float, float]:
     return UNDER_WAY.get(kind, (0.0, 0.0, 0.0))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _swimming(name: str) -> bool:
     """Whether the swimmer variant ``name`` (e.g. ``swimmer-02``) swims (a pose of
     :data:`sar.swimmer.SWIMMING`); True for a name that is not a variant's."""
