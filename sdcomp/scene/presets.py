@@ -55,7 +55,7 @@ SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.
 #: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
 #: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
 #: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
-#: not annotate (logs, foam)
+#: not annotate (logs, foam); ignore regions as its category 0 ``ignored``
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n} for k, n in SDS_CLASSES],
     "count": list(SDS_COUNT),
@@ -65,6 +65,7 @@ SEADRONESSEE: dict[str, Any] = {
     "width": 3840, "height": 2160,
     "water": ["coastal"], "turbidity": "0.2-0.8", "shallow": 0.1,
     "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
+    "ignored_category": True,
 }
 
 #: named presets: field values applied over the defaults
