@@ -16,12 +16,12 @@ with track ids. Frame ``k`` of sequence ``s`` depends only on (config, s, k).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .annotate import Frame, coco_annotations, image_meta
+from .annotate import Frame, coco_annotations, ignore_annotations, image_meta
 from .annotate.records import dji_heading
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.sequence import Sequence, frame_scene, sample_sequence
@@ -43,6 +43,10 @@ class VideoFrame:
             pixels over its whole projected silhouette, in frame or not, 0-1), pose, and
             state (world x_m, y_m, vx/vy m/s, heading_deg).
         tracks: track id of every object of interest in the scene (annotated or not).
+        ignored: per visible object too small to label (the labelling policy of
+            :class:`~sdcomp.annotate.AnnotationRule`): its ignore region as a COCO ``iscrowd``
+            entry with ``track_id``: tracks stay accounted for to their last visible pixel.
+        ignore: (H, W) bool, the frame's ignore region (None when it has none).
         meta: the frame's metadata: the still's (water, sun, camera...) and the flight's
             with SeaDronesSee's key names.
         frame_info: the still pipeline's :class:`~sdcomp.annotate.Frame`.
@@ -56,6 +60,8 @@ class VideoFrame:
     tracks: tuple[int, ...]
     meta: dict
     frame_info: Frame
+    ignored: list[dict] = field(default_factory=list)
+    ignore: np.ndarray | None = None
 
 
 class ClipGenerator:
@@ -105,10 +111,13 @@ class ClipGenerator:
                               "heading_deg": round(float(tr.heading(t)), 3),
                               "speed_through_water_mps": round(tr.placement.speed, 4)})
             objects.append(ann)
+        ignored = [dict(ann, track_id=ids[inst.placement], instance_id=ids[inst.placement],
+                        visibility=_visibility(inst.area, inst.full_area))
+                   for inst, ann in zip(info.ignored, ignore_annotations(info), strict=True)]
         info.instances = instances
         tracks = tuple(i for i in ids if i > 0)
         return VideoFrame(s, k, info.image, instances, objects, tracks,
-                          self.frame_meta(seq, k, info), info)
+                          self.frame_meta(seq, k, info), info, ignored, info.ignore)
 
     def frame_meta(self, seq: Sequence, k: int, info: Frame) -> dict:
         """The metadata of frame ``k``: the still's (:func:`image_meta`) with the flight's

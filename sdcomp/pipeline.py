@@ -131,16 +131,34 @@ class Generator:
     def render_scene(self, scene: Scene, rule: AnnotationRule | None = None) -> Frame:
         """Any ``scene`` of this generator's assets (e.g. :meth:`scene` with placements of
         your own, :func:`dataclasses.replace`-d) rendered and annotated by ``rule``
-        (default: the config's)."""
+        (default: the config's). With ``--unlabelled skip``, objects of interest that cannot
+        be labelled are not drawn: the scene is drawn again without them (hiding one only
+        uncovers others) until every object drawn with a visible pixel is labelled; images
+        with nothing to skip are drawn once, as with ``draw``."""
         rule = rule or self.rule
+        frame = self._render_once(scene, rule)
+        if self.config.unlabelled != "skip":
+            return frame
+        skipped = 0
+        while frame.ignored:
+            skipped += len(frame.ignored)
+            hidden = tuple(sorted({*frame.scene.hidden, *(o.placement for o in frame.ignored)}))
+            frame = self._render_once(replace(frame.scene, hidden=hidden), rule)
+        frame.skipped = skipped
+        frame.dropped -= skipped
+        return frame
+
+    def _render_once(self, scene: Scene, rule: AnnotationRule) -> Frame:
+        """``scene`` drawn and annotated by ``rule`` (every placement but its hidden ones)."""
         out = self.compositor.render(scene)
         labels, objs = label_map(scene, out.layers)
         amodal = amodal_masks(labels.shape, objs) if rule.amodal else None
         image, labels, amodal, camera = self.compositor.record(scene, out.image, labels, amodal)
-        objects, dropped = measure(labels, objs, rule, amodal, "lens" in camera["stages"],
-                                   camera.get("zoom", 1.0))
-        dropped += scene.count(Role.OBJECT) - len(objs)
-        return Frame(image, labels, objects, dropped, scene, camera)
+        found = measure(labels, objs, rule, amodal, "lens" in camera["stages"],
+                        camera.get("zoom", 1.0))
+        dropped = found.dropped + scene.count(Role.OBJECT) - len(objs)
+        return Frame(image, labels, found.objects, dropped, scene, camera, found.ignored,
+                     found.ignore)
 
     def sample(self, index: int) -> Sample:
         """Image ``index`` as arrays with COCO-style annotations (no ids, no RLE)."""

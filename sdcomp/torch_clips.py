@@ -12,6 +12,8 @@ Item ``i`` of :class:`SyntheticClips` is a clip: ``clip_len`` frames of one sequ
                             and its mask is where the frame's instance map equals it,
               "masks":      tv_tensors.Mask (N, H, W) bool,
               "visibility": (N,) float32 visible fraction of the object's silhouette (0-1),
+              "ignore":     tv_tensors.Mask (H, W) bool: the frame's ignore region (objects
+                            with too few visible pixels to label; all False when none),
               "sequence":   int, the sequence index,
               "frame":      int, the frame index in the sequence (0-based)}
 
@@ -51,7 +53,7 @@ except ImportError:  # pragma: no cover - torchvision comes with the dev and ben
                       "pip install 'sdcomp[bench]')") from None
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.config import GeneratorConfig
-from .scene.video import VideoConfig
+from .scene.video import VideoConfig, sequence_split
 from .util.pool import pause_opencv_threads_on_fork
 
 Target = dict[str, Any]
@@ -104,6 +106,8 @@ def frame_target(frame: VideoFrame) -> Target:
             "masks": tv_tensors.Mask(torch.from_numpy(masks)),
             "visibility": torch.from_numpy(np.array([o["visibility"] for o in objs],
                                                     np.float32).reshape(n)),
+            "ignore": tv_tensors.Mask(torch.from_numpy(
+                np.zeros((h, w), bool) if frame.ignore is None else frame.ignore)),
             "sequence": int(frame.sequence), "frame": int(frame.frame)}
 
 
@@ -120,21 +124,28 @@ class SyntheticClips(torch.utils.data.Dataset):
         sprites_dir: sprite atlas folder (built there on first use when missing).
         transforms: optional ``transforms(video, targets) -> (video, targets)``, applied
             last, once per clip.
+        split: "all", or the sequences of "train" or "val" only (whole sequences, as
+            ``sdcomp video`` splits them by the config's ``val_fraction``:
+            :func:`~sdcomp.scene.video.sequence_split`).
 
-    ``len(dataset)`` = sequences x clips per sequence; item ``i`` is clip ``i %
-    clips_per_sequence`` of sequence ``i // clips_per_sequence``.
+    ``len(dataset)`` = sequences (of the split) x clips per sequence; item ``i`` is clip
+    ``i % clips_per_sequence`` of the split's sequence ``i // clips_per_sequence``.
     """
 
     def __init__(self, config: VideoConfig | GeneratorConfig, clip_len: int,
                  clips_per_sequence: int | None = None, stride: int = 1,
                  sprites_dir: str | Path = DEFAULT_SPRITES,
-                 transforms: ClipTransforms | None = None):
+                 transforms: ClipTransforms | None = None, split: str = "all"):
         if isinstance(config, GeneratorConfig):
             config = VideoConfig(config)
         if not isinstance(config, VideoConfig):
             raise UserError(f"config must be a VideoConfig or GeneratorConfig, not "
                             f"{type(config).__name__}")
         self.config = config
+        if split not in ("all", "train", "val"):
+            raise UserError(f"split {split!r} is unknown: use all, train or val")
+        self.sequences = [s for s in range(config.sequences) if split == "all"
+                          or sequence_split(s, config.generator.val_fraction) == split]
         self.clip_len = _whole(clip_len, "clip_len", 1)
         self.stride = _whole(stride, "stride", 1)
         if clips_per_sequence is not None:
@@ -162,7 +173,7 @@ class SyntheticClips(torch.utils.data.Dataset):
         return self._clips
 
     def __len__(self) -> int:
-        return self.config.sequences * self.clips_per_sequence
+        return len(self.sequences) * self.clips_per_sequence
 
     def clip_frames(self, i: int) -> tuple[int, list[int]]:
         """(sequence, frame indices) of item ``i``."""
@@ -170,9 +181,9 @@ class SyntheticClips(torch.utils.data.Dataset):
         index = int(i) + (n if int(i) < 0 else 0)
         if not 0 <= index < n:
             raise IndexError(f"clip index {i} is out of range for a dataset of {n}")
-        s, j = divmod(index, self.clips_per_sequence)
+        k, j = divmod(index, self.clips_per_sequence)
         start = self.starts[j]
-        return s, [start + t * self.stride for t in range(self.clip_len)]
+        return self.sequences[k], [start + t * self.stride for t in range(self.clip_len)]
 
     def __getitem__(self, i: int) -> tuple[torch.Tensor, list[Target]]:
         s, ks = self.clip_frames(i)

@@ -13,7 +13,13 @@ that every ``torchvision.transforms.v2`` transform moves the image, boxes and ma
              "masks":    tv_tensors.Mask (N, H, W) uint8 0/1 instance masks,
              "image_id": int, COCO image id (the image's index, the number in its file name),
              "area":     (N,) float32 mask pixel counts (of the untransformed mask),
-             "iscrowd":  (N,) int64 zeros}
+             "iscrowd":  (N,) int64 zeros,
+             "ignore":   tv_tensors.Mask (H, W) uint8 0/1: the ignore region, pixels of
+                         objects of interest too small to label (all 0 when none)}
+
+The ignore region is what a detector should neither learn nor be scored on there (COCO's
+``iscrowd`` entries). It is one (H, W) mask, not (1, H, W): ``v2.SanitizeBoundingBoxes``
+passes masks whose first dimension is not the number of boxes through unchanged.
 
 A v2 transform that drops or crops objects leaves boxes that may be empty: end the pipeline
 with ``v2.SanitizeBoundingBoxes()`` (it removes them with their labels and masks).
@@ -64,7 +70,7 @@ try:
 except ImportError:  # pragma: no cover - torchvision comes with the dev and bench extras
     raise ImportError("sdcomp.torch_datasets needs torchvision (pip install torchvision, or "
                       "pip install 'sdcomp[bench]')") from None
-from .io.png import decode_png16
+from .io.png import decode_ignore_png, decode_png16
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.config import GeneratorConfig
 from .util.pool import pause_opencv_threads_on_fork
@@ -88,12 +94,13 @@ def check_image_dtype(image_dtype: Any) -> torch.dtype:
 
 def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[int],
               category_ids: Sequence[int], bboxes: Sequence[Sequence[float]],
-              image_id: int, image_dtype: torch.dtype = torch.float32
-              ) -> tuple[torch.Tensor, Target]:
+              image_id: int, image_dtype: torch.dtype = torch.float32,
+              ignore: np.ndarray | None = None) -> tuple[torch.Tensor, Target]:
     """The torchvision form of one image: ``image`` (H, W, 3) uint8 RGB, ``instances``
     (H, W) uint16 instance ids; per object its instance id, category id (from 1) and COCO
-    bbox [x, y, w, h] in pixels. The image comes back as (3, H, W) ``image_dtype``:
-    float32 in [0, 1] or uint8 in 0..255. See the module docstring for the target."""
+    bbox [x, y, w, h] in pixels; ``ignore`` (H, W) bool, the ignore region (None: none).
+    The image comes back as (3, H, W) ``image_dtype``: float32 in [0, 1] or uint8 in
+    0..255. See the module docstring for the target."""
     # numpy, then torch.from_numpy: no torch kernels (slow for small tensors on few cores)
     h, w = instances.shape
     chw: np.ndarray = np.stack(cv2.split(np.ascontiguousarray(image)))
@@ -112,7 +119,10 @@ def to_sample(image: np.ndarray, instances: np.ndarray, instance_ids: Sequence[i
               "image_id": int(image_id),
               "area": torch.from_numpy(masks.reshape(n, h * w).sum(1, dtype=np.int64)
                                        .astype(np.float32)),
-              "iscrowd": torch.from_numpy(np.zeros(n, np.int64))}
+              "iscrowd": torch.from_numpy(np.zeros(n, np.int64)),
+              "ignore": tv_tensors.Mask(torch.from_numpy(
+                  np.zeros((h, w), np.uint8) if ignore is None
+                  else np.ascontiguousarray(ignore, bool).view(np.uint8)))}
     img = tv_tensors.Image(torch.from_numpy(chw))
     return img, target
 
@@ -292,7 +302,8 @@ class SyntheticDetection(torch.utils.data.Dataset):
         objs = frame.objects
         image, target = to_sample(frame.image, frame.instances,
                                   [o.instance_id for o in objs], [o.category_id for o in objs],
-                                  [o.bbox for o in objs], index, self.image_dtype)
+                                  [o.bbox for o in objs], index, self.image_dtype,
+                                  frame.ignore)
         if self.transforms is not None:
             image, target = self.transforms(image, target)
         return image, target
@@ -306,8 +317,9 @@ class SyntheticDetection(torch.utils.data.Dataset):
 class GeneratedCoco(torch.utils.data.Dataset):
     """The images of one split of a folder written by ``sdcomp generate``, in index order, as
     ``(image, target)`` (see the module docstring). Masks come from ``masks/`` (16-bit
-    instance ids), boxes and labels from ``annotations/instances_{split}.json`` (or, in a
-    folder written with ``--format yolo``, from the run's journal ``records.jsonl``).
+    instance ids, and the 8-bit ignore masks of images that have one), boxes and labels
+    from ``annotations/instances_{split}.json`` (or, in a folder written with ``--format
+    yolo``, from the run's journal ``records.jsonl``).
 
     Args:
         folder: the dataset folder (the generator's ``--out``).
@@ -352,10 +364,24 @@ class GeneratedCoco(torch.utils.data.Dataset):
         image, target = to_sample(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), instances,
                                   [a["instance_id"] for a in anns],
                                   [a["category_id"] for a in anns],
-                                  [a["bbox"] for a in anns], im["id"], self.image_dtype)
+                                  [a["bbox"] for a in anns], im["id"], self.image_dtype,
+                                  self._ignore(im))
         if self.transforms is not None:
             image, target = self.transforms(image, target)
         return image, target
+
+
+    def _ignore(self, im: dict) -> np.ndarray | None:
+        """(H, W) bool: image ``im``'s ignore mask (its ``ignore_file``), None without one."""
+        name = im.get("ignore_file")
+        if not isinstance(name, str):
+            return None
+        path = self.folder / "masks" / name
+        try:
+            return decode_ignore_png(path.read_bytes())
+        except (OSError, ValueError):
+            raise UserError(f"{path}: missing or unreadable ignore mask; re-run sdcomp "
+                            f"generate with --resume to redraw it") from None
 
 
 __all__ = ["SyntheticDetection", "GeneratedCoco", "Batch", "collate", "to_sample",

@@ -179,13 +179,14 @@ def _check_images(folder: Path, decode: bool) -> None:
 
 def _check_masks(folder: Path, decode: bool) -> None:
     """Every mask under a final name in ``folder`` is a whole PNG, and (if ``decode``)
-    decodes as 16-bit."""
+    decodes as 16-bit (instance masks) or 8-bit (``_ignore.png``: ignore masks)."""
     for p in _visible_files(folder):
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(PNG_END), p
         if decode:
             m = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-            assert m is not None and m.dtype == np.uint16, p
+            want = np.uint8 if p.name.endswith("_ignore.png") else np.uint16
+            assert m is not None and m.dtype == want, p
 
 
 def _check_coco(root: Path, path: Path, decode: bool) -> int:
@@ -200,6 +201,7 @@ def _check_coco(root: Path, path: Path, decode: bool) -> int:
         assert mask_path.is_file(), im["mask_file"]
         if decode:
             _check_annotations(coco, iid, im, mask_path)
+            _check_ignore(coco, iid, im, root / "masks")
     return len(coco.imgs)
 
 
@@ -208,7 +210,7 @@ def _check_annotations(coco: COCO, iid: int, im: dict, mask_path: Path) -> None:
     instance ids of its annotations, each with the area and box of its pixels."""
     mask = cv2.imread(str(mask_path), cv2.IMREAD_UNCHANGED)
     assert mask.shape == (im["height"], im["width"])
-    anns = coco.loadAnns(coco.getAnnIds(imgIds=[iid]))
+    anns = coco.loadAnns(coco.getAnnIds(imgIds=[iid], iscrowd=False))
     ids = sorted(int(v) for v in np.unique(mask) if v)
     assert ids == sorted(a["instance_id"] for a in anns), im["file_name"]
     for a in anns:
@@ -217,6 +219,23 @@ def _check_annotations(coco: COCO, iid: int, im: dict, mask_path: Path) -> None:
         ys, xs = np.nonzero(m)
         assert a["bbox"] == [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
                              int(ys.max() - ys.min() + 1)]
+
+
+def _check_ignore(coco: COCO, iid: int, im: dict, masks: Path) -> None:
+    """Image ``iid``'s ignore regions (its ``iscrowd`` annotations, RLE) cover exactly the
+    pixels of its ignore mask (``ignore_file``), which no labelled object's mask touches;
+    an image without ignore regions has no ignore file."""
+    crowd = [a for a in coco.loadAnns(coco.getAnnIds(imgIds=[iid])) if a["iscrowd"]]
+    if "ignore_file" not in im:
+        assert not crowd, im["file_name"]
+        return
+    ignore = cv2.imread(str(masks / im["ignore_file"]), cv2.IMREAD_UNCHANGED) > 0
+    labels = cv2.imread(str(masks / im["mask_file"]), cv2.IMREAD_UNCHANGED)
+    assert ignore.any() and not (ignore & (labels > 0)).any(), im["ignore_file"]
+    union = np.zeros_like(ignore)
+    for a in crowd:
+        union |= mask_utils.decode(a["segmentation"]).astype(bool)
+    assert np.array_equal(union, ignore), im["ignore_file"]
 
 
 def by_name(folder: Path) -> list[Path]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -88,3 +90,24 @@ def test_eval_set_scores_only_its_category_and_fills_coco_fields():
                                   "id": 1, "area": 12, "iscrowd": 0}]
     dets = [{"image_id": 1, "category_id": 9, "bbox": [1, 2, 3, 4], "score": 1.0}]
     assert coco_metrics(gt, dets)["AP"] == 1.0
+
+
+@pytest.mark.parametrize("crowd_category", [1, 0])
+def test_detections_on_ignore_regions_are_neither_true_nor_false(crowd_category):
+    """An ignore region (iscrowd 1, of the scored category or SeaDronesSee's category 0
+    'ignored') makes a detection on it count for nothing; the same detection elsewhere is a
+    false positive; the trainer takes no ignore region as a positive box."""
+    from sdcomp.bench.train import training_items
+
+    gt = _gt([[[20, 20, 30, 30]]])
+    gt["images"][0]["path"] = "0.jpg"
+    gt["annotations"].append({"id": 2, "image_id": 1, "category_id": crowd_category,
+                              "bbox": [200.0, 200.0, 3.0, 1.0], "area": 3, "iscrowd": 1})
+    scored = EvalSet("t", "synthetic-val", gt, Path("."), 1).coco_for_category()
+    assert [a["iscrowd"] for a in scored["annotations"]] == [0, 1]
+    on = {"image_id": 1, "category_id": 1, "score": 0.99, "bbox": [200.0, 200.0, 3.0, 1.0]}
+    off = dict(on, bbox=[300.0, 300.0, 3.0, 1.0])
+    assert coco_metrics(scored, [*_dets(gt)[:1], on])["AP"] == 1.0
+    assert coco_metrics(scored, [*_dets(gt)[:1], off])["AP"] < 1.0
+    (_, boxes), = training_items(gt)
+    assert boxes.tolist() == [[20.0, 20.0, 50.0, 50.0]]

@@ -124,8 +124,15 @@ def _find(frame, placement: int):
     return None, None
 
 
+def _visible(frame) -> np.ndarray:
+    """(H, W) bool: every visible pixel of an object of interest, labelled or ignored."""
+    ignore = frame.ignore if frame.ignore is not None else np.zeros_like(frame.instances, bool)
+    return (frame.instances > 0) | ignore
+
+
 def _check_annotations(frame, min_visible_px: int = 1) -> None:
-    """ids 1..N; area, bbox from the instance map; visible inside amodal; drop count."""
+    """ids 1..N; area, bbox from the instance map; visible inside amodal; ignored objects'
+    pixels are the ignore mask, apart from the labels; drop count."""
     n = len(frame.objects)
     assert [o.instance_id for o in frame.objects] == list(range(1, n + 1))
     assert frame.instances.dtype == np.uint16
@@ -142,7 +149,17 @@ def _check_annotations(frame, min_visible_px: int = 1) -> None:
             assert o.amodal.shape == m.shape and o.amodal_area == int(o.amodal.sum())
             assert not (m & ~o.amodal).any(), "visible pixels outside the amodal mask"
     placed = sum(p.role is Role.OBJECT for p in frame.scene.placements)
-    assert frame.dropped == placed - n
+    assert frame.dropped == placed - n - len(frame.ignored)
+    if frame.ignore is None:
+        assert frame.ignored == []
+        return
+    assert frame.ignore.shape == frame.instances.shape and frame.ignore.dtype == bool
+    assert not (frame.ignore & (frame.instances > 0)).any()
+    assert sum(o.area for o in frame.ignored) >= int(frame.ignore.sum()) > 0
+    for o in frame.ignored:
+        x, y, w, h = o.bbox
+        assert o.instance_id == 0 and frame.ignore[y:y + h, x:x + w].sum() >= o.area
+        assert frame.scene.placements[o.placement].role is Role.OBJECT
 
 
 # --------------------------------------------------------------------------- 1. GSD
@@ -381,7 +398,7 @@ def test_sampled_frames_have_several_and_occluded_objects(rov_frames):
 
 def test_min_visible_px(rov, rov_frames, sprites_dir):
     # a limit equal to an object's area: that object is kept (fewer pixels than the limit
-    # are dropped), smaller ones go
+    # are not labelled but ignored: their pixels become the ignore mask), smaller ones go
     areas = sorted(o.area for f in rov_frames.values() for o in f.objects)
     limit = areas[len(areas) // 2]
     gen = Generator(replace(ROV_CONFIG, min_visible_px=limit), sprites_dir)
@@ -395,6 +412,10 @@ def test_min_visible_px(rov, rov_frames, sprites_dir):
         # the same objects as the default limit, less those under the new limit
         want = [(o.placement, o.area, o.bbox) for o in base.objects if o.area >= limit]
         assert [(o.placement, o.area, o.bbox) for o in f.objects] == want
+        small = [(o.placement, o.area, o.bbox) for o in base.objects if o.area < limit]
+        assert small == [(o.placement, o.area, o.bbox) for o in f.ignored
+                         if o.placement in {p for p, _, _ in small}]
+        assert np.array_equal(_visible(f), _visible(base))  # every visible pixel accounted
         for o in f.objects:  # pixels kept as they were, ids renumbered
             old = next(b for b in base.objects if b.placement == o.placement)
             assert np.array_equal(f.instances == o.instance_id,
@@ -403,8 +424,9 @@ def test_min_visible_px(rov, rov_frames, sprites_dir):
         dropped_any |= len(want) < len(base.objects)
         empty = none.render(i)
         placed = sum(p.role is Role.OBJECT for p in empty.scene.placements)
-        assert empty.objects == [] and empty.dropped == placed > 0
+        assert empty.objects == [] and empty.dropped + len(empty.ignored) == placed > 0
         assert not empty.instances.any()
+        assert np.array_equal(_visible(empty), _visible(base))
     assert kept_any and dropped_any
 
 
@@ -479,7 +501,8 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
     assert meta["water_color"] in ("brown", "blue", "green")
     assert meta["camera_look"] == sc.look.preset and meta["camera_stages"] == list(
         frame.camera["stages"])
-    assert meta["objects_placed"] - meta["objects_dropped"] == n
+    assert meta["objects_placed"] - meta["objects_dropped"] - meta["objects_ignored"] == n
+    assert meta["objects_truncated"] == sum(o.truncated for o in frame.objects) <= n
 
 
 # --------------------------------------------------------------------------- 8. huge frames

@@ -50,6 +50,9 @@ if train:
                     name="val", exist_ok=True)
     out["seconds"] = time.perf_counter() - start
     out["predictions"] = str(Path(res.save_dir) / "predictions.json")
+    # what Ultralytics found wrong with the labels (corrupt, out of bounds, duplicates)
+    out["label_warnings"] = [m for s in ("train", "val") for m in np.load(
+        folder / "labels" / f"{s}.cache", allow_pickle=True).item().get("msgs", [])]
 # Ultralytics' own rasteriser on every polygon of the val labels
 ious = []
 for label in sorted((folder / "labels" / "val").glob("*.txt")):
@@ -101,6 +104,7 @@ def test_ultralytics_trains_and_its_predictions_match_our_coco_ids(seg, tmp_path
     assert (seg / "labels" / "train.cache").is_file()
     assert (seg / "labels" / "val.cache").is_file()
     assert not (seg / "labels.cache").exists()
+    assert result["label_warnings"] == []  # every label line as Ultralytics wants it
     gt = quiet_coco(seg / "annotations" / "instances_val.json")
     preds = json.loads(Path(result["predictions"]).read_text())
     assert preds, "a random-weight model still predicts something at conf 0.001"

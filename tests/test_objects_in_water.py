@@ -373,25 +373,33 @@ def test_deeper_objects_fade_into_the_water(gen):
     assert prev_area < 0.5 * first_area
 
 
-def test_objects_cut_to_slivers_at_the_edge_are_not_annotated(sprites_dir):
-    """min_in_frame: an object with a tenth of its silhouette in the frame is dropped at the
-    default 0.25 and kept with 0; a whole object is kept either way."""
+def test_objects_cut_by_the_edge_are_labelled_by_what_is_visible(sprites_dir):
+    """The default labels an object with a tenth of its silhouette in the frame (truncated,
+    its visible pixels and box); with --min-in-frame 0.25 it is not labelled but its pixels
+    are the image's ignore region; a whole object is labelled either way, not truncated."""
     g = Generator(GeneratorConfig(seed=2, clutter=0, count=1), sprites_dir)
-    g0 = Generator(GeneratorConfig(seed=2, clutter=0, count=1, min_in_frame=0.0),
-                   sprites_dir)
+    g25 = Generator(GeneratorConfig(seed=2, clutter=0, count=1, min_in_frame=0.25),
+                    sprites_dir)
     water = _water("ocean", 0.2, wind=1.0)
     full = g.render_scene(_scene(g, [_rov()], water))
     (whole,) = full.objects
+    assert not whole.truncated and full.ignore is None
     half_w = 12.0 * g.model.width / 2 / g.model.fx  # metres from the centre to the edge
     found = False
     for off in np.linspace(0.2, 1.0, 17):
         pl = [_rov(y=-(half_w + off * 0.5))]  # towards the right edge (nadir, heading 0)
-        strict = g.render_scene(_scene(g, pl, water))
-        loose = g0.render_scene(_scene(g0, pl, water))
+        loose = g.render_scene(_scene(g, pl, water))
+        strict = g25.render_scene(_scene(g25, pl, water))
+        assert np.array_equal(loose.image, strict.image)
         if loose.objects and loose.objects[0].area < 0.2 * whole.area:
-            assert strict.objects == [] and strict.dropped == 1
-            x, _, w, _ = loose.objects[0].bbox
+            (o,) = loose.objects
+            assert o.truncated and loose.truncated == 1 and loose.ignore is None
+            x, _, w, _ = o.bbox
             assert x + w == g.model.width  # cut by the right edge
+            assert strict.objects == [] and strict.dropped == 0
+            (ign,) = strict.ignored
+            assert (ign.area, ign.bbox) == (o.area, o.bbox) and ign.truncated
+            assert np.array_equal(strict.ignore, loose.instances == 1)
             found = True
     assert found
 

@@ -31,7 +31,7 @@ def kv(request):
 def test_api_shape():
     assert KINDS == ("swimmer", "boat", "jetski", "life_saving_appliances", "buoy")
     assert set(VARIANTS) == set(KINDS)
-    assert all(8 <= n <= 16 for n in VARIANTS.values())
+    assert all(8 <= n <= 20 for n in VARIANTS.values())
     assert sar.variant_names("jetski") == tuple(f"jetski-{v:02d}" for v in range(8))
     assert sar.parse_name("buoy-07") == ("buoy", 7)
     for other in ("buoy-10", "buoy", "bluerov2", "boat-7", "swimmer-00x"):

@@ -8,6 +8,7 @@ import json
 import shutil
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -22,7 +23,7 @@ from sdcomp.scene.sequence import frame_scene, sample_sequence
 from sdcomp.scene.video import VideoConfig
 
 ARGS = ["--size", "160", "--frames", "16", "--fps", "10", "--seed", "3", "--count", "3-5",
-        "--altitude", "12-20", "--quiet"]
+        "--altitude", "12-20", "--quiet", "--val-fraction", "0.34"]  # sequence 2 is val
 SPRITES: list[Path] = []  # the session's sprite folder (set by the clips fixture)
 
 
@@ -131,14 +132,25 @@ def test_layout_and_seqinfo(clips):
 
 def test_gt_agrees_with_the_masks(clips):
     layout = ClipLayout(clips)
-    seen_partial = False
+    seen_partial = seen_ignored = False
     for s in range(3):
         gt = read_gt(layout.gt(s))
         assert len(gt) > 0
         for k in range(16):
             mask = decode_png16(layout.mask(s, k).read_bytes())
-            rows = gt[gt[:, 0] == k + 1]
+            frame = gt[gt[:, 0] == k + 1]
+            rows = frame[frame[:, 6] == 1]
             assert sorted(rows[:, 1].astype(int)) == sorted(set(np.unique(mask)) - {0})
+            ignore_path = layout.ignore_mask(s, k)
+            ignore = (cv2.imread(str(ignore_path), cv2.IMREAD_UNCHANGED) > 0
+                      if ignore_path.exists() else np.zeros(mask.shape, bool))
+            assert not (ignore & (mask > 0)).any()
+            for _, _tid, left, top, w, h, _conf, cls, _vis in frame[frame[:, 6] == 0]:
+                # an ignore row: its box is on the ignore mask, its track visible but tiny
+                x, y = int(left) - 1, int(top) - 1
+                assert ignore[y:y + int(h), x:x + int(w)].any() and cls == 1
+                seen_ignored = True
+            assert len(rows) + int((frame[:, 6] == 0).sum()) == len(frame)
             for _, tid, left, top, w, h, conf, cls, vis in rows:
                 ys, xs = np.nonzero(mask == tid)
                 assert (xs.min() + 1, ys.min() + 1) == (left, top)
@@ -146,6 +158,7 @@ def test_gt_agrees_with_the_masks(clips):
                 assert conf == 1 and cls == 1 and 0 < vis <= 1
                 seen_partial |= vis < 0.9
     assert seen_partial  # objects cut by the frame's edge (entering, leaving) or occluded
+    assert seen_ignored  # tracks stay accounted for to their last visible pixel
 
 
 def test_identities_persist_and_never_jump(clips):
@@ -200,6 +213,7 @@ def _iou_distance(a: np.ndarray, b: np.ndarray, max_d: float = 0.5) -> np.ndarra
 def test_motmetrics_on_the_ground_truth(clips):
     mm = pytest.importorskip("motmetrics")
     gt = read_gt(ClipLayout(clips).gt(0))
+    gt = gt[gt[:, 6] == 1]  # ignore rows (flag 0) are no ground truth, as TrackEval reads
     rng = np.random.default_rng(0)
 
     def scores(hyp: np.ndarray) -> tuple[float, float]:
@@ -237,6 +251,10 @@ def test_coco_video_agrees_with_the_masks(clips):
         mask = decode_png16((clips / im["mask_file"]).read_bytes())
         rle = dict(a["segmentation"])
         decoded = mask_utils.decode(rle).astype(bool)
+        if a["iscrowd"]:  # an ignore region: on the frame's ignore mask
+            ignore = cv2.imread(str(clips / im["ignore_file"]), cv2.IMREAD_UNCHANGED) > 0
+            assert decoded.any() and not (decoded & ~ignore).any()
+            continue
         assert np.array_equal(decoded, mask == a["instance_id"])
         assert im["file_name"].endswith(f"{im['frame_id'] + 1:06d}.jpg")
     assert len({a["id"] for a in coco["annotations"]}) == len(coco["annotations"])
@@ -247,9 +265,28 @@ def test_yolo_labels_per_frame(clips):
     gt = read_gt(layout.gt(0))
     for k in (0, 9):
         lines = layout.label(0, k).read_text().splitlines()
-        assert len(lines) == int((gt[:, 0] == k + 1).sum())
+        assert len(lines) == int(((gt[:, 0] == k + 1) & (gt[:, 6] == 1)).sum())
     assert (layout.seq(0) / "images" / "000001.jpg").exists()  # Ultralytics finds labels/
     assert "sdcomp-0000/images" in layout.data_yaml.read_text()
+
+
+def test_val_fraction_splits_whole_sequences(clips):
+    """--val-fraction 0.34 of 3 sequences: sequence 2 is val, in data.yaml, the COCO-video
+    file and the clips dataset; train and val share no sequence."""
+    import yaml
+
+    from sdcomp.scene.video import sequence_split
+
+    layout = ClipLayout(clips)
+    data = yaml.safe_load(layout.data_yaml.read_text())
+    assert data["train"] == [f"{layout.name(s)}/images" for s in (0, 1)]
+    assert data["val"] == [f"{layout.name(2)}/images"]
+    assert not set(data["train"]) & set(data["val"])
+    coco = json.loads(layout.coco.read_text())
+    assert [v["split"] for v in coco["videos"]] == ["train", "train", "val"]
+    assert [sequence_split(s, 0.2) for s in range(10)].count("val") == 2
+    assert [s for s in range(10) if sequence_split(s, 0.2) == "val"] == [4, 9]
+    assert {sequence_split(s, 0.0) for s in range(50)} == {"train"}
 
 
 # ---------------------------------------------------------------- runs

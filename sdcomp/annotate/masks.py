@@ -8,10 +8,18 @@ pixel belongs to an object's mask when the object's weight there is at least
 excludes what other objects hide, what murky water hides, and everything outside the frame; at
 most one object can pass the rule for a pixel except in exact ties, which go to the nearer
 object. The bbox and area of an annotation are those of its final mask (after the camera's
-lens has moved it: :func:`measure`); an object of interest with fewer than ``min_visible_px``
-mask pixels, or cut by the frame's edge with less than ``min_in_frame`` of its silhouette
-inside the frame, is not annotated and is counted as dropped. Blur, noise and the camera's
-other stages come after and do not change masks.
+lens has moved it: :func:`measure`). Blur, noise and the camera's other stages come after and
+do not change masks.
+
+The labelling policy (:class:`AnnotationRule`, the same for stills and video frames): an
+object of interest with visible pixels is *labelled* (its visible mask and box, whether the
+frame's edge cuts it or not: *truncated*) when a detector can learn from them: at least
+``min_visible_px`` pixels, a box of at least :data:`MIN_SIDE` pixels each way, and at least
+``min_in_frame`` of its silhouette in the frame (0 by default: SeaDronesSee, COCO and
+MOTChallenge label cut objects by what is visible). Every other object with visible pixels
+is *ignored*: its pixels form the image's ignore region (COCO ``iscrowd`` entries, an ignore
+mask), so nothing a detector sees is background by mistake. An object without a visible
+pixel (out of the frame, hidden, in murky water) is *dropped*.
 """
 
 from __future__ import annotations
@@ -24,6 +32,10 @@ from ..render.layers import Layer
 from ..scene.scene import Role, Scene
 
 MASK_THRESHOLD = 0.5
+#: pixels: a labelled object's box is at least this wide and high. A box 1 px across is a
+#: line, not an object: Ultralytics' augmentation drops boxes of 2 px or less
+#: (``box_candidates``) and an IoU of such a box moves by half with a one-pixel shift.
+MIN_SIDE = 2
 #: the rule as dataset.json states it
 MASK_RULE = (f"a pixel belongs to an object when the object supplies at least "
              f"{MASK_THRESHOLD:g} of its colour (coverage x water transmittance x what is "
@@ -32,14 +44,23 @@ MASK_RULE = (f"a pixel belongs to an object when the object supplies at least "
 
 @dataclass(frozen=True)
 class AnnotationRule:
-    """What is annotated: objects with at least ``min_visible_px`` mask pixels and, when cut
-    by the frame's edge, at least ``min_in_frame`` of their projected silhouette inside it
-    (no slivers at the edges); with ``amodal``, also each object's whole projected
-    silhouette."""
+    """The labelling policy (see the module docstring): an object with visible pixels is
+    labelled when it has at least ``min_visible_px`` of them, a box at least ``min_side``
+    pixels wide and high and at least ``min_in_frame`` of its projected silhouette inside the
+    frame; else it is ignored (its pixels an ignore region). With ``amodal``, labels also
+    carry each object's whole projected silhouette."""
 
     min_visible_px: int = 4
     amodal: bool = False
     min_in_frame: float = 0.0
+    min_side: int = MIN_SIDE
+
+    def labelled(self, area: int, bbox: tuple[int, int, int, int], inside: float) -> bool:
+        """Whether an object with ``area`` visible pixels, box ``bbox`` (x, y, w, h pixels)
+        and the fraction ``inside`` of its silhouette in the frame is labelled (the caller
+        has checked ``area > 0``; else it is dropped)."""
+        return (area >= self.min_visible_px and min(bbox[2], bbox[3]) >= self.min_side
+                and inside >= self.min_in_frame)
 
 
 @dataclass
@@ -55,15 +76,32 @@ class Instance:
     amodal_area: int = 0
     silhouette_area: int = 0  # pixels of the unoccluded in-frame silhouette (visibility)
     full_area: float = 0.0  # pixels of the whole silhouette, in the frame or out of it
+    truncated: bool = False  # the frame's edge cuts its silhouette
+
+
+@dataclass
+class Measured:
+    """What :func:`measure` finds in a label map: the labelled ``objects`` (ids 1..N), the
+    ``ignored`` objects (``instance_id`` 0, their visible area and box), ``ignore`` (H, W)
+    bool: the ignored objects' visible pixels (None when there are none), and ``dropped``:
+    objects of interest with a layer but no visible pixel."""
+
+    objects: list[Instance]
+    ignored: list[Instance]
+    ignore: np.ndarray | None
+    dropped: int
 
 
 @dataclass
 class Frame:
     """A rendered and annotated image: ``image`` (H, W, 3) uint8 RGB, ``instances`` (H, W)
-    uint16 ids (0 = none), the annotated ``objects`` and the count of objects of interest
-    ``dropped`` (too few visible pixels, or cut by the frame's edge); ``scene`` is what it
-    shows, ``camera`` what the camera stage did (its info dict: intrinsics ``K``,
-    distortion ``dist``, ``zoom``, ``stages``; empty when none ran)."""
+    uint16 ids (0 = none), the labelled ``objects`` and the count of objects of interest
+    ``dropped`` (no visible pixel); ``scene`` is what it shows, ``camera`` what the camera
+    stage did (its info dict: intrinsics ``K``, distortion ``dist``, ``zoom``, ``stages``;
+    empty when none ran); ``ignored``: the objects of interest with visible pixels too few
+    to label, whose pixels are ``ignore`` ((H, W) bool, None when there are none);
+    ``skipped``: objects not drawn because they could not be labelled (``unlabelled``
+    skip)."""
 
     image: np.ndarray
     instances: np.ndarray
@@ -71,6 +109,14 @@ class Frame:
     dropped: int
     scene: Scene
     camera: dict = field(default_factory=dict)  # what the camera stage did (apply_camera)
+    ignored: list[Instance] = field(default_factory=list)
+    ignore: np.ndarray | None = None
+    skipped: int = 0
+
+    @property
+    def truncated(self) -> int:
+        """How many labelled objects the frame's edge cuts."""
+        return sum(1 for o in self.objects if o.truncated)
 
     @property
     def gsd(self) -> float:
@@ -80,16 +126,17 @@ class Frame:
 
 
 def instance_map(scene: Scene, layers: list[Layer], rule: AnnotationRule
-                 ) -> tuple[np.ndarray, list[Instance], int]:
-    """(instances (H, W) uint16, the annotated objects in placement order with ids 1..N,
-    the number of objects of interest dropped) of the composited ``layers`` (far to near,
-    final weights) of ``scene``, as the renderer's pinhole image has them:
-    :func:`label_map` then :func:`measure` (the generator records the camera's image in
-    between, whose lens moves the labels)."""
+                 ) -> tuple[np.ndarray, Measured]:
+    """(instances (H, W) uint16, what :func:`measure` finds: the labelled objects in
+    placement order with ids 1..N, the ignored ones, the objects of interest dropped) of the
+    composited ``layers`` (far to near, final weights) of ``scene``, as the renderer's
+    pinhole image has them: :func:`label_map` then :func:`measure` (the generator records
+    the camera's image in between, whose lens moves the labels)."""
     instances, objs = label_map(scene, layers)
     amodal = amodal_masks(instances.shape, objs) if rule.amodal else None
-    out, dropped = measure(instances, objs, rule, amodal, moved=False)
-    return instances, out, dropped + scene.count(Role.OBJECT) - len(objs)
+    found = measure(instances, objs, rule, amodal, moved=False)
+    found.dropped += scene.count(Role.OBJECT) - len(objs)
+    return instances, found
 
 
 def label_map(scene: Scene, layers: list[Layer]) -> tuple[np.ndarray, list[Layer]]:
@@ -129,26 +176,35 @@ def truncated(layer: Layer, shape: tuple[int, int]) -> float:
 
 
 def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
-            amodal: np.ndarray | None, moved: bool, zoom: float = 1.0
-            ) -> tuple[list[Instance], int]:
-    """The annotated objects of a label map (:func:`label_map`, possibly ``moved`` by the
-    camera's lens) with their boxes and areas, and how many were dropped: those with fewer
-    than ``rule.min_visible_px`` pixels, and those cut by the frame's edge with less than
-    ``rule.min_in_frame`` of their silhouette inside it. ``labels`` is renumbered in place
-    (kept objects 1..N in order, dropped ones 0); ``amodal`` (K, H, W) bool, when given,
-    goes with its objects (moved likewise). ``zoom``: the lens's magnification, which the
-    silhouettes measured on the layers (before the lens) take to be compared with areas
-    measured after it (visibility)."""
+            amodal: np.ndarray | None, moved: bool, zoom: float = 1.0) -> Measured:
+    """The labelled and ignored objects of a label map (:func:`label_map`, possibly ``moved``
+    by the camera's lens) with their boxes and areas by ``rule``
+    (:meth:`AnnotationRule.labelled`), the ignore mask of the ignored ones' pixels, and how
+    many had no visible pixel (dropped). ``labels`` is renumbered in place (labelled objects
+    1..N in order, the others 0); ``amodal`` (K, H, W) bool, when given, goes with its
+    objects (moved likewise). ``zoom``: the lens's magnification, which the silhouettes
+    measured on the layers (before the lens) take to be compared with areas measured after
+    it (visibility)."""
     stats = _label_stats(labels, objs, moved)
     out: list[Instance] = []
+    ignored: list[Instance] = []
     relabel = np.zeros(len(objs) + 1, np.uint16)
+    ignore_ids = np.zeros(len(objs) + 1, bool)
+    dropped = 0
     for k, lay in enumerate(objs):
         area, bbox = stats[k]
+        if area == 0:
+            dropped += 1
+            continue
         inside = truncated(lay, labels.shape)
-        if area < rule.min_visible_px or inside < rule.min_in_frame:
+        if not rule.labelled(area, bbox, inside):
+            ignore_ids[k + 1] = True
+            ignored.append(Instance(0, lay.placement, lay.category_id, area, bbox,
+                                    truncated=inside < 1.0))
             continue
         relabel[k + 1] = len(out) + 1
-        inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox)
+        inst = Instance(len(out) + 1, lay.placement, lay.category_id, area, bbox,
+                        truncated=inside < 1.0)
         inst.silhouette_area = (int(np.count_nonzero(amodal[k])) if amodal is not None else
                                 round(np.count_nonzero(lay.alpha >= MASK_THRESHOLD)
                                       * (zoom * zoom if moved else 1.0)))
@@ -157,12 +213,25 @@ def measure(labels: np.ndarray, objs: list[Layer], rule: AnnotationRule,
             inst.amodal = amodal[k]
             inst.amodal_area = int(amodal[k].sum())
         out.append(inst)
+    ignore = _ignore_mask(labels, ignored, ignore_ids) if ignored else None
     if len(out) != len(objs):
         if moved:
             labels[:] = relabel[labels]
         else:
             _renumber(labels, objs, relabel)
-    return out, len(objs) - len(out)
+    return Measured(out, ignored, ignore, dropped)
+
+
+def _ignore_mask(labels: np.ndarray, ignored: list[Instance], ignore_ids: np.ndarray
+                 ) -> np.ndarray:
+    """(H, W) bool: the pixels of ``labels`` (ids before renumbering) whose id is flagged in
+    ``ignore_ids`` ((K + 1,) bool), looked at only inside the ignored objects' boxes."""
+    out = np.zeros(labels.shape, bool)
+    for inst in ignored:
+        x, y, w, h = inst.bbox
+        win = labels[y:y + h, x:x + w]
+        out[y:y + h, x:x + w] |= ignore_ids[win]
+    return out
 
 
 def _label_stats(labels: np.ndarray, objs: list[Layer], moved: bool

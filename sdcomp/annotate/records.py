@@ -38,12 +38,32 @@ def object_annotations(frame: Frame, names: Mapping[int, str]) -> list[dict]:
             for inst in frame.objects]
 
 
+def ignore_annotations(frame: Frame) -> list[dict]:
+    """Per ignored object (visible but not labelled: :class:`~sdcomp.annotate.masks.
+    AnnotationRule`), the journal's ignore region: category_id (the object's), bbox
+    [x, y, w, h] (floats) and area of its visible pixels, segmentation (compressed RLE of
+    the image's ignore mask inside that box) and iscrowd 1, which COCOeval takes as "match
+    a detection here to nothing": neither a true nor a false positive."""
+    if frame.ignore is None:
+        return []
+    out = []
+    for inst in frame.ignored:
+        x, y, w, h = inst.bbox
+        crop = frame.ignore[y:y + h, x:x + w]
+        out.append({"category_id": inst.category_id, "bbox": [float(v) for v in inst.bbox],
+                    "area": inst.area,
+                    "segmentation": crop_to_rle(crop, x, y, *frame.ignore.shape),
+                    "iscrowd": 1, "truncated": inst.truncated})
+    return out
+
+
 def coco_annotations(frame: Frame) -> list[dict]:
     """Per annotated object, the journal's (and COCO files') annotation: instance_id,
     category_id, bbox [x, y, w, h] (floats: pixel edges of the mask's extent), area,
-    segmentation (compressed RLE of the mask), iscrowd 0, visibility (visible mask pixels
-    over the unoccluded in-frame silhouette's, 0-1, as BOP's ``visib_fract``), pose, and
-    with amodal masks amodal_segmentation, amodal_area, amodal_bbox."""
+    segmentation (compressed RLE of the mask), iscrowd 0, truncated (the frame's edge cuts
+    it), visibility (visible mask pixels over the unoccluded in-frame silhouette's, 0-1, as
+    BOP's ``visib_fract``), pose, and with amodal masks amodal_segmentation, amodal_area,
+    amodal_bbox."""
     return [_coco_annotation(frame, inst) for inst in frame.objects]
 
 
@@ -53,6 +73,7 @@ def _coco_annotation(frame: Frame, inst: Instance) -> dict:
     rec = {"instance_id": inst.instance_id, "category_id": inst.category_id,
            "bbox": [float(v) for v in inst.bbox], "area": inst.area,
            "segmentation": crop_to_rle(crop, x, y, *frame.instances.shape), "iscrowd": 0,
+           "truncated": inst.truncated,
            "visibility": round(min(inst.area / inst.silhouette_area, 1.0), 4)
            if inst.silhouette_area else 1.0,
            "pose": pose_of(frame.scene.placements[inst.placement])}
@@ -133,6 +154,9 @@ def image_meta(frame: Frame) -> dict:
         "clutter": s.count(Role.CLUTTER),
         "objects_placed": s.count(Role.OBJECT),
         "objects_dropped": frame.dropped,
+        "objects_truncated": frame.truncated,
+        "objects_ignored": len(frame.ignored),
+        "objects_skipped": frame.skipped,
         "camera_look": s.look.preset,
         "recording": s.look.recording,
         "exposure_gain": round(float(cam.get("exposure_gain", 1.0)), 4),

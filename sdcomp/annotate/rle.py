@@ -48,3 +48,12 @@ def crop_to_rle(crop: np.ndarray, x0: int, y0: int, height: int, width: int) -> 
     rle = mask_utils.frPyObjects({"counts": counts.tolist(), "size": [height, width]},
                                  height, width)
     return {"size": [height, width], "counts": rle["counts"].decode("ascii")}
+
+
+def rle_to_mask(rle: dict) -> np.ndarray:
+    """(H, W) bool of a COCO compressed RLE ``{"size": [H, W], "counts": str}`` (as
+    :func:`mask_to_rle` writes it)."""
+    counts = rle["counts"]
+    data = {"size": list(rle["size"]),
+            "counts": counts.encode("ascii") if isinstance(counts, str) else counts}
+    return mask_utils.decode(data).astype(bool)

@@ -26,10 +26,12 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import UserError
+from ..io.coco import IGNORED_CATEGORY
 from ..run.local import RunOptions, run
 from ..scene.config import GeneratorConfig, preset
 
 CATEGORY = "bluerov2"
+IGNORED_ID = IGNORED_CATEGORY["id"]  # SeaDronesSee's "ignored": an ignore region of any class
 CACHE_VERSION = 1
 FIELD_SEED = 1000
 MIXED = ("brown", "blue", "green")  # the colours of water "mixed"
@@ -153,14 +155,19 @@ class EvalSet:
         return Path(image["path"]) if "path" in image else self.images_dir / image["file_name"]
 
     def coco_for_category(self) -> dict:
-        """The ground truth restricted to the scored category."""
+        """The ground truth restricted to the scored category, with its ignore regions
+        (``iscrowd`` entries of that category, or of category 0, SeaDronesSee's
+        ``ignored``, which stands for any category) as that category's: COCOeval counts a
+        detection on one neither as a true nor as a false positive."""
         anns: list[dict] = []
         for a in self.coco["annotations"]:
-            if a.get("category_id") != self.category_id:
+            crowd = a.get("iscrowd", 0)
+            if a.get("category_id") != self.category_id and not (
+                    crowd and a.get("category_id") == IGNORED_ID):
                 continue
             w, h = a["bbox"][2], a["bbox"][3]  # COCOeval needs id, area and iscrowd
             anns.append({**a, "id": len(anns) + 1, "area": a.get("area", w * h),
-                         "iscrowd": a.get("iscrowd", 0)})
+                         "iscrowd": crowd, "category_id": self.category_id})
         cats = [c for c in self.coco["categories"] if c["id"] == self.category_id]
         return {"images": self.coco["images"], "categories": cats, "annotations": anns}
 

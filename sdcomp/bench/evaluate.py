@@ -82,7 +82,8 @@ def detections_to_coco(image_ids: list[int], results: list, category_id: int,
 
 def evaluate_detector(model, test, device: str = "cpu", batch_size: int = 4) -> dict:
     """Score ``model`` on ``test`` (a :class:`~.datasets.EvalSet`); returns its metrics, the
-    number of images and of ground-truth boxes, and the test set's label."""
+    number of images and of ground-truth boxes (ignore regions not counted: COCOeval
+    ignores detections on them), and the test set's label."""
     from .detector import predict
     from .train import read_image
 
@@ -97,7 +98,8 @@ def evaluate_detector(model, test, device: str = "cpu", batch_size: int = 4) -> 
     dets = detections_to_coco(ids, results, test.category_id)
     gt = test.coco_for_category()
     return {"test_set": test.label, "images": len(images),
-            "boxes": len(gt["annotations"]), "detections": len(dets),
+            "boxes": sum(not a["iscrowd"] for a in gt["annotations"]),
+            "detections": len(dets),
             "metrics": coco_metrics(gt, dets)}
 
 
@@ -130,8 +132,9 @@ def banded_metrics(gt: dict, detections: list[dict], category_ids: list[int] | N
         ev.accumulate()
     precision = ev.eval["precision"][..., -1]  # (T, R, K, A) at 100 detections per image
     recall = ev.eval["recall"][..., -1]  # (T, K, A)
-    areas = np.asarray([a["area"] for a in gt["annotations"]], np.float64)
-    cats = np.asarray([a["category_id"] for a in gt["annotations"]])
+    true = [a for a in gt["annotations"] if not a.get("iscrowd", 0)]  # ignore regions: no box
+    areas = np.asarray([a["area"] for a in true], np.float64)
+    cats = np.asarray([a["category_id"] for a in true])
 
     def band_values(k: slice | int) -> dict[str, dict]:
         out = {}

@@ -122,10 +122,12 @@ def read_image(path: str | Path) -> np.ndarray:
 
 def training_items(coco: dict, category_id: int = 1) -> list[tuple[str, np.ndarray]]:
     """(image path, boxes (K, 4) float32 x0, y0, x1, y1 px) per image of a merged COCO dict
-    (:func:`~.datasets.merged_split`); images without boxes are kept (background only)."""
+    (:func:`~.datasets.merged_split`); images without boxes are kept (background only).
+    Ignore regions (``iscrowd`` entries) are no positives: torchvision's detectors have no
+    ignore loss, so their few pixels (objects too small to label) train as background."""
     boxes: dict[int, list] = {im["id"]: [] for im in coco["images"]}
     for a in coco["annotations"]:
-        if a["category_id"] == category_id:
+        if a["category_id"] == category_id and not a.get("iscrowd", 0):
             x, y, w, h = a["bbox"]
             if w > 0 and h > 0:
                 boxes[a["image_id"]].append([x, y, x + w, y + h])

@@ -8,6 +8,7 @@
     sdcomp merge DIR... --out D   join shard folders     (= python -m sdcomp.merge)
     sdcomp bench ...              detector benchmarks    (= python -m sdcomp.bench)
     sdcomp realism DIR ...        the realism report     (= python -m sdcomp.realism)
+    sdcomp check DIR              check a dataset        (= python -m sdcomp.check)
 
 Each job's parser and ``main(argv) -> int`` live in a module of this package
 (:mod:`sdcomp.cli.generate`, ...); ``python -m sdcomp.<job>`` runs the same ``main``.
@@ -45,6 +46,8 @@ COMMANDS: dict[str, tuple[str, str, str, str]] = {
               "join the folders of --shard runs into one dataset"),
     "bench": ("sdcomp.bench.cli", "main", "sdcomp.bench",
               "train and evaluate detectors on generated data (needs torch)"),
+    "check": ("sdcomp.cli.check", "main", "sdcomp.check",
+              "check a generated dataset's files against each other (exit 1 on a problem)"),
     "realism": ("sdcomp.cli.realism", "main", "sdcomp.realism",
                 "how real a dataset looks: water statistics, targets, real-vs-synthetic "
                 "classifier"),

@@ -172,8 +172,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     counts = ENGINES[args.engine](config, options, args.scheduler)
     secs = time.perf_counter() - start
     log.info(f"wrote {counts['images']} images ({counts['train']} train, {counts['val']} "
-             f"val), {counts['annotations']} annotations, {counts['objects_dropped']} objects "
-             f"too hidden to annotate, to {options.out} in {secs:.1f} s")
+             f"val), {counts['annotations']} objects labelled ({counts['objects_truncated']} "
+             f"truncated by the frame's edge), {counts['objects_ignored']} ignored (too small "
+             f"to label: ignore regions), {counts['objects_skipped']} skipped, "
+             f"{counts['objects_dropped']} not visible, to {options.out} in {secs:.1f} s")
     warning = dropped_warning(counts, config)
     if warning:
         log.warning(warning)
@@ -196,13 +198,15 @@ def run_options(args: argparse.Namespace) -> RunOptions:
 
 
 def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:
-    """A warning when no object, or under half of those placed, could be annotated (fewer
-    than --min-visible-px visible pixels: too far, too small an image, or hidden)."""
-    dropped, kept = counts["objects_dropped"], counts["annotations"]
+    """A warning when no object, or under half of those placed, could be labelled (not
+    visible, or fewer than --min-visible-px visible pixels: too far, too small an image, or
+    hidden)."""
+    kept = counts["annotations"]
+    dropped = sum(counts.get(f"objects_{k}", 0) for k in ("dropped", "ignored", "skipped"))
     if dropped == 0 or dropped < kept:
         return None
     share = "none" if kept == 0 else f"only {kept}"
-    return (f"{share} of the {kept + dropped} objects placed could be annotated: the others had "
+    return (f"{share} of the {kept + dropped} objects placed could be labelled: the others had "
             f"fewer than --min-visible-px {config.min_visible_px} visible pixels at --altitude "
             f"{config.altitude.to_json()} and {config.width}x{config.height} px; lower "
             f"--altitude, raise --size, or lower --min-visible-px")

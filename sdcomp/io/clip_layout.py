@@ -7,6 +7,7 @@
       sdcomp-0000/                      one MOTChallenge sequence
         img1/000001.jpg ...             frames (MOTChallenge: from 1)
         masks/000001.png ...            16-bit instance masks, values = track ids
+        masks/000001_ignore.png ...     8-bit ignore masks (frames that have ignore regions)
         labels/000001.txt ...           YOLO labels (with --format yolo); images/ -> img1
         gt/gt.txt                       MOTChallenge ground truth
         flight.json                     per-frame flight metadata (SeaDronesSee's keys)
@@ -21,6 +22,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+
+from .layout import IGNORE_SUFFIX
 
 VIDEO_FORMAT = "sdcomp-video"
 VIDEO_FORMAT_VERSION = 1
@@ -58,6 +61,10 @@ class ClipLayout:
 
     def mask(self, s: int, k: int) -> Path:
         return self.seq(s) / "masks" / f"{k + 1:06d}.png"
+
+    def ignore_mask(self, s: int, k: int) -> Path:
+        """Frame ``k``'s ignore mask (written only when it has ignore pixels)."""
+        return self.seq(s) / "masks" / f"{k + 1:06d}{IGNORE_SUFFIX}"
 
     def label(self, s: int, k: int) -> Path:
         return self.seq(s) / "labels" / f"{k + 1:06d}.txt"

@@ -48,8 +48,26 @@ def _check_categories(categories: list[dict]) -> None:
         seen.add(cid)
 
 
+#: SeaDronesSee's category of what it does not label (``--ignored-category``)
+IGNORED_CATEGORY = {"supercategory": "ignored", "id": 0, "name": "ignored"}
+
+
+def ignore_entries(rec: dict, ignored_category: bool) -> list[dict]:
+    """The COCO annotations of record ``rec``'s ignore regions (its ``"ignore"`` list), with
+    instance ids after its labelled objects' and, with ``ignored_category``, category 0."""
+    first = len(rec.get("annotations", ())) + 1
+    out = []
+    for j, ign in enumerate(rec.get("ignore", ())):
+        full = dict(ign, instance_id=first + j)
+        if ignored_category:
+            full["category_id"] = IGNORED_CATEGORY["id"]
+        out.append(full)
+    return out
+
+
 def write_coco(path: str | Path, journal_path: str | Path, offsets: dict[int, int],
-               split: str | None, categories: list[dict], info: dict) -> dict:
+               split: str | None, categories: list[dict], info: dict,
+               ignored_category: bool = False) -> dict:
     """Write the COCO JSON file of one split from the journal; return its counts.
 
     The file is ``{"info", "licenses": [], "categories", "images", "annotations"}``: the images
@@ -57,9 +75,14 @@ def write_coco(path: str | Path, journal_path: str | Path, offsets: dict[int, in
     annotation plus ``"id": annotation_id(index, instance_id)`` and ``"image_id"``. Two
     streaming passes over the journal, nothing held; written to a temporary file renamed onto
     ``path``, so a crash never leaves a half file. The output depends only on the records,
-    not on their order in the journal. Returns ``{"images": n, "annotations": m}``.
+    not on their order in the journal. A record's ignore regions follow its annotations
+    (:func:`ignore_entries`: ``iscrowd`` 1; with ``ignored_category`` of category 0,
+    SeaDronesSee's ``ignored``, listed first). Returns ``{"images": n, "annotations": m}``
+    (ignore entries included).
     """
     _check_categories(categories)
+    if ignored_category:
+        categories = [IGNORED_CATEGORY, *categories]
     n_images = n_anns = 0
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as out:
         out.write(f'{{"info":{dumps_compact(info)},"licenses":[],'
@@ -70,7 +93,7 @@ def write_coco(path: str | Path, journal_path: str | Path, offsets: dict[int, in
         out.write('],"annotations":[')
         for rec in iter_records(journal_path, offsets, split):
             image_id, seen = rec["image"]["id"], set()
-            for ann in rec.get("annotations", ()):
+            for ann in [*rec.get("annotations", ()), *ignore_entries(rec, ignored_category)]:
                 inst = ann.get("instance_id")
                 if inst in seen:
                     raise UserError(f"{journal_path}: record {rec['index']} has instance_id "
@@ -91,7 +114,7 @@ class CocoWriter:
     journal (nothing per image). See :class:`sdcomp.io.writers.LabelWriter`."""
 
     def __init__(self, config: GeneratorConfig):
-        del config  # nothing to configure
+        self.ignored_category = config.ignored_category
 
     def folders(self, layout: DatasetLayout) -> tuple[Path, ...]:
         return (layout.annotations,)
@@ -106,7 +129,8 @@ class CocoWriter:
     def finish(self, layout: DatasetLayout, offsets: dict[int, int], categories: list[dict],
                info: dict) -> dict[str, int]:
         return {split: write_coco(layout.coco_file(split), layout.journal, offsets, split,
-                                  categories, info)["images"] for split in SPLITS}
+                                  categories, info, self.ignored_category)["images"]
+                for split in SPLITS}
 
     def layout_entries(self) -> dict[str, str]:
         return dict(LAYOUT)

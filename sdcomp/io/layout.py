@@ -5,6 +5,9 @@ Layout of a dataset folder ``root`` (format version 2), one sub-folder per split
     images/train/000000.jpg      the images (or .png), sRGB; images/val/ likewise
     masks/train/000000.png       16-bit instance ids (0 = none; k = annotation with
                                  instance_id k of that image)
+    masks/train/000000_ignore.png  8-bit ignore mask (255: pixels of objects of interest
+                                 too small to label), only for images that have any; the
+                                 COCO image's "ignore_file"
     annotations/instances_train.json, annotations/instances_val.json   COCO (--format coco):
                                  image id = the file's number (000017.jpg has id 17),
                                  file_name "train/000017.jpg" (relative to images/)
@@ -27,7 +30,7 @@ from __future__ import annotations
 
 import json
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import UserError
@@ -41,6 +44,8 @@ SPLIT_CHOICES = ("all", *SPLITS)
 IMAGES, MASKS, ANNOTATIONS, LABELS = "images", "masks", "annotations", "labels"
 JOURNAL, META = "records.jsonl", "dataset.json"
 DATA_YAML = "data.yaml"
+#: the ignore mask of image 000017 is masks/SPLIT/000017_ignore.png
+IGNORE_SUFFIX = "_ignore.png"
 #: the folders every run makes (the label writers add their own)
 CORE_FOLDERS = (IMAGES, MASKS)
 #: every top-level name a dataset folder may hold: what --overwrite replaces, nothing else
@@ -60,6 +65,12 @@ def split_name(index: int, ext: str, split: str) -> str:
     """Name of image ``index``'s file relative to ``images/`` (or ``masks/``, ``labels/``):
     ``train/000017.jpg``; what the COCO ``file_name`` and ``mask_file`` hold."""
     return f"{split}/{image_name(index, ext)}"
+
+
+def ignore_name(index: int, split: str) -> str:
+    """Name of image ``index``'s ignore mask relative to ``masks/``: ``train/000017_ignore.png``
+    (what the image record's ``ignore_file`` holds)."""
+    return f"{split}/{index:06d}{IGNORE_SUFFIX}"
 
 
 def check_format_version(meta: dict, root: Path, what: str) -> None:
@@ -113,6 +124,10 @@ class DatasetLayout:
     def mask_file(self, index: int, split: str) -> Path:
         return self.masks / split_name(index, "png", split)
 
+    def ignore_file(self, index: int, split: str) -> Path:
+        """The ignore mask of image ``index`` (written only when it has ignore pixels)."""
+        return self.masks / ignore_name(index, split)
+
     def coco_file(self, split: str) -> Path:
         return self.annotations / f"instances_{split}.json"
 
@@ -156,11 +171,14 @@ class DatasetLayout:
 
 @dataclass(frozen=True)
 class Entry:
-    """One image of the dataset: its COCO record, its annotations and its split."""
+    """One image of the dataset: its COCO record, its labelled objects' annotations, its
+    split and its ignore regions (``iscrowd`` 1 entries: visible objects too small to
+    label)."""
 
     image: dict
     annotations: list
     split: str
+    ignore: list = field(default_factory=list)
 
     @property
     def id(self) -> int:
@@ -252,18 +270,22 @@ def load_dataset(folder: str | Path, split: str = "all") -> Dataset:
 
 
 def _coco_entries(coco: dict, split: str, path: Path, how: str) -> list[Entry]:
-    """The entries of one COCO file (its images with their annotations)."""
+    """The entries of one COCO file (its images with their annotations; ``iscrowd``
+    entries are the images' ignore regions)."""
     by_image: dict = {}
+    crowd: dict = {}
     for ann in coco.get("annotations", []):
         if isinstance(ann, dict):
-            by_image.setdefault(ann.get("image_id"), []).append(ann)
+            into = crowd if ann.get("iscrowd") else by_image
+            into.setdefault(ann.get("image_id"), []).append(ann)
     entries = []
     for img in coco["images"]:
         if not (isinstance(img, dict) and isinstance(img.get("id"), int)
                 and isinstance(img.get("file_name"), str)):
             raise UserError(f"{str(path)!r}: an image record lacks an integer 'id' or a "
                             f"'file_name': {how} to rewrite it")
-        entries.append(Entry(img, by_image.get(img["id"], []), split))
+        entries.append(Entry(img, by_image.get(img["id"], []), split,
+                             crowd.get(img["id"], [])))
     return entries
 
 
@@ -274,7 +296,7 @@ def journal_dataset(folder: str | Path, split: str = "all") -> Dataset:
     layout = DatasetLayout(Path(folder))
     offsets = read_journal(layout.journal)
     wanted = None if split == "all" else split
-    entries = [Entry(rec["image"], rec["annotations"], rec["split"])
+    entries = [Entry(rec["image"], rec["annotations"], rec["split"], rec.get("ignore", []))
                for rec in iter_records(layout.journal, offsets, wanted)]
     entries.sort(key=lambda e: (e.id, e.split))
     try:

@@ -4,8 +4,10 @@ py-motmetrics read them, and reading them back.
 ``gt.txt``: one line per annotated object per frame, sorted by frame then id:
 ``frame, id, left, top, width, height, conf, class, visibility`` with frames from 1, boxes
 in MOTChallenge's pixel convention (the top-left pixel is (1, 1): ``left = x + 1``), ``conf``
-1 (the object counts), ``class`` the COCO category id and ``visibility`` the visible
-fraction of the object's whole projected silhouette (0-1).
+(MOTChallenge's flag) 1 for a labelled object and 0 for an ignore region (an object whose
+visible pixels are too few to label: TrackEval and py-motmetrics' ``min_confidence=1`` leave
+it out, matching nothing to it), ``class`` the COCO category id and ``visibility`` the
+visible fraction of the object's whole projected silhouette (0-1).
 """
 
 from __future__ import annotations
@@ -20,16 +22,18 @@ GT_COLUMNS = ("frame", "id", "left", "top", "width", "height", "conf", "class", 
 
 def gt_lines(frames: Iterable[tuple[int, list[dict]]]) -> str:
     """The text of ``gt.txt`` from (frame number from 1, objects) pairs; each object has
-    ``track_id``, ``bbox`` [x, y, w, h] (0-based pixels), ``category_id``, ``visibility``."""
+    ``track_id``, ``bbox`` [x, y, w, h] (0-based pixels), ``category_id``, ``visibility``
+    and, for an ignore region, ``iscrowd`` 1 (its flag is 0)."""
     rows = []
     for k, objects in frames:
         for o in objects:
             x, y, w, h = (float(v) for v in o["bbox"])
             rows.append((int(k), int(o["track_id"]), x + 1, y + 1, w, h,
-                         int(o["category_id"]), float(o["visibility"])))
+                         0 if o.get("iscrowd") else 1, int(o["category_id"]),
+                         float(o["visibility"])))
     rows.sort(key=lambda r: (r[0], r[1]))
-    return "".join(f"{f},{i},{_n(x)},{_n(y)},{_n(w)},{_n(h)},1,{c},{v:.4f}\n"
-                   for f, i, x, y, w, h, c, v in rows)
+    return "".join(f"{f},{i},{_n(x)},{_n(y)},{_n(w)},{_n(h)},{flag},{c},{v:.4f}\n"
+                   for f, i, x, y, w, h, flag, c, v in rows)
 
 
 def _n(v: float) -> str:

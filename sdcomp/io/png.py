@@ -34,6 +34,7 @@ import struct
 import threading
 import zlib
 
+import cv2
 import numpy as np
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -164,6 +165,23 @@ def _zlib_scanlines(mask: np.ndarray, level: int) -> bytes:
     parts.append(comp.flush(zlib.Z_FINISH))
     parts.append(struct.pack(">I", adler))
     return b"".join(parts)
+
+
+def encode_ignore_png(ignore: np.ndarray) -> bytes:
+    """An (H, W) bool ignore mask as an 8-bit greyscale PNG: 255 where True, else 0."""
+    ok, data = cv2.imencode(".png", np.asarray(ignore, bool).view(np.uint8) * np.uint8(255),
+                            [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:
+        raise RuntimeError(f"could not encode an ignore mask of shape {ignore.shape}")
+    return data.tobytes()
+
+
+def decode_ignore_png(data: bytes) -> np.ndarray:
+    """(H, W) bool of an ignore mask PNG (:func:`encode_ignore_png`)."""
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if img is None or img.ndim != 2:
+        raise ValueError("not an 8-bit greyscale PNG")
+    return img > 0
 
 
 def decode_png16(data: bytes) -> np.ndarray:

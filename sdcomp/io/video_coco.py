@@ -20,7 +20,8 @@ def sequence_part(s: int, video: dict, frames: Iterable[tuple[int, dict, list[di
                   ) -> dict:
     """The COCO-video part of sequence ``s``: ``video`` (its entry: name, width, height,
     fps, length, ...) and (frame from 0, image entry, objects) for each frame; objects as
-    :class:`~sdcomp.clips.VideoFrame` gives them."""
+    :class:`~sdcomp.clips.VideoFrame` gives them (its ignore regions among them, with
+    ``iscrowd`` 1)."""
     images: list[dict] = []
     anns: list[dict] = []
     tracks: dict[int, int] = {}
@@ -33,7 +34,7 @@ def sequence_part(s: int, video: dict, frames: Iterable[tuple[int, dict, list[di
             anns.append({"image_id": image_id, "video_id": s + 1, "track_id": tid,
                          "instance_id": int(o["track_id"]), "category_id": o["category_id"],
                          "bbox": o["bbox"], "area": o["area"],
-                         "segmentation": o["segmentation"], "iscrowd": 0,
+                         "segmentation": o["segmentation"], "iscrowd": o.get("iscrowd", 0),
                          "visibility": o["visibility"], "state": o.get("state", {})})
     return {"video": dict(video, id=s + 1), "images": images, "annotations": anns,
             "tracks": [{"id": t, "category_id": c, "video_id": s + 1}

@@ -348,13 +348,16 @@ def wake_foam(i: int, pl: Placement, view: SpriteView, size_m: float, waterline:
 
 def build_layers(scene: Scene, lit: Lighting, sprites: Mapping[str, SpriteSource],
                  foam_onto: np.ndarray | None = None) -> list[Layer]:
-    """The layers of every placement in the frame, far to near; ``sprites`` maps asset
+    """The layers of every placement in the frame (but the scene's ``hidden`` ones), far to
+    near; ``sprites`` maps asset
     keys to their sprites. The foam rings are drawn on ``foam_onto`` (the uint8 (H, W, 3)
     background, in place) as they are made, far first: under every object, so they never
     change a mask, and never held (a ring round a large object in a huge frame is
     gigabytes of layer); none without ``foam_onto``."""
     seen = []
     for i, pl in enumerate(scene.placements):
+        if i in scene.hidden:
+            continue
         src = sprites[pl.asset]
         view = sprite_view(scene.model, lit, scene.camera.position, pl, src)
         if view is not None:

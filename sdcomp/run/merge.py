@@ -31,6 +31,7 @@ from ..util.files import atomic_path
 from ..util.progress import Progress
 from .output import folders as run_folders
 from .output import image_files, os_error_message, remove_dataset, write_annotations
+from .record import split_of
 from .shards import parse_shard, shard_range, shard_text
 
 
@@ -48,6 +49,23 @@ class Shard:
 def _relative_files(config: GeneratorConfig, index: int) -> list[Path]:
     """The per-image files of image ``index`` relative to a dataset folder."""
     return image_files(config, DatasetLayout(Path()), index)
+
+
+def _ignore_file(config: GeneratorConfig, index: int) -> Path:
+    """Image ``index``'s ignore mask relative to a dataset folder (written only for images
+    with ignore regions)."""
+    return DatasetLayout(Path()).ignore_file(index, split_of(config.seed, index,
+                                                              config.val_fraction))
+
+
+def _place_image(config: GeneratorConfig, shard: Path, out: Path, index: int) -> None:
+    """Put image ``index``'s files from the folder ``shard`` into ``out`` (its ignore mask
+    too, where it has one)."""
+    for f in _relative_files(config, index):
+        place_file(shard / f, out / f)
+    ignore = _ignore_file(config, index)
+    if (shard / ignore).is_file():
+        place_file(shard / ignore, out / ignore)
 
 
 def read_shard(folder: str | Path) -> Shard:
@@ -168,8 +186,7 @@ def merge(folders: Sequence[str | Path], out: str | Path, *, overwrite: bool = F
             for s in shards:
                 with open(s.folder / "records.jsonl", "rb") as src:
                     for i in shard_range(config.n, s.k, s.n):
-                        for f in _relative_files(config, i):
-                            place_file(s.folder / f, out / f)
+                        _place_image(config, s.folder, out, i)
                         src.seek(s.offsets[i])
                         line = src.readline()
                         journal.write(line if line.endswith(b"\n") else line + b"\n")

@@ -187,15 +187,20 @@ def check_same_shard(meta: dict, out: Path, shard: tuple[int, int] | None) -> No
 
 def _tally(layout: DatasetLayout, offsets: dict[int, int]) -> dict[str, Any]:
     """One pass over the journal: images per split (in order of first appearance),
-    annotations, objects dropped, images without objects."""
+    annotations, objects dropped (no visible pixel), truncated (labelled, cut by the frame's
+    edge), ignored (visible, not labelled: an ignore region), skipped (not drawn:
+    ``--unlabelled skip``), images without objects."""
     splits: dict[str, int] = {}
-    annotations = dropped = empty = 0
+    annotations = empty = 0
+    objects = {"dropped": 0, "truncated": 0, "ignored": 0, "skipped": 0}
     for rec in iter_records(layout.journal, offsets):
         splits[rec["split"]] = splits.get(rec["split"], 0) + 1
         annotations += len(rec["annotations"])
-        dropped += int(rec["image"]["meta"].get("objects_dropped", 0))
+        meta = rec["image"]["meta"]
+        for k in objects:
+            objects[k] += int(meta.get(f"objects_{k}", 0))
         empty += not rec["annotations"]
-    return {"splits": splits, "annotations": annotations, "dropped": dropped, "empty": empty}
+    return {"splits": splits, "annotations": annotations, "empty": empty, **objects}
 
 
 def write_annotations(config: GeneratorConfig, out: Path, status: str,
@@ -221,7 +226,8 @@ def write_annotations(config: GeneratorConfig, out: Path, status: str,
         counts.setdefault(split, n)
     counts.setdefault("train", 0)
     counts.setdefault("val", 0)
-    counts["objects_dropped"] = tally["dropped"]
+    for k in ("dropped", "truncated", "ignored", "skipped"):
+        counts[f"objects_{k}"] = tally[k]
     counts["empty_images"] = tally["empty"]
     entries = {"images": "images/train/, images/val/",
                "masks": "masks/train/, masks/val/ (16-bit PNG instance ids)",

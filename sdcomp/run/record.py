@@ -1,10 +1,12 @@
 """One image of a run: render it, write its files, return its journal record.
 
 The record is ``{"index", "split", "image": {id, file_name, width, height, mask_file, camera,
-meta}, "annotations": [...]}`` (see :mod:`sdcomp.io.journal`); the image, its 16-bit mask and
-the label writers' per-image files are written (each atomically) before it is returned, so a
-journaled image always has its files. The image id is the index, the number in the file name
-(``train/000017.jpg`` has id 17), as Ultralytics' ``save_json`` and most tools take it.
+meta}, "annotations": [...]}`` (see :mod:`sdcomp.io.journal`), and for an image with ignore
+regions ``"ignore": [...]`` (iscrowd entries) and the image's ``ignore_file``; the image, its
+16-bit mask, its ignore mask and the label writers' per-image files are written (each
+atomically) before it is returned, so a journaled image always has its files. The image id
+is the index, the number in the file name (``train/000017.jpg`` has id 17), as Ultralytics'
+``save_json`` and most tools take it.
 """
 
 from __future__ import annotations
@@ -14,9 +16,9 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-from ..annotate import camera_record, coco_annotations, image_meta
-from ..io.layout import DatasetLayout, split_name
-from ..io.png import encode_png16
+from ..annotate import camera_record, coco_annotations, ignore_annotations, image_meta
+from ..io.layout import DatasetLayout, ignore_name, split_name
+from ..io.png import encode_ignore_png, encode_png16
 from ..io.writers import LabelWriter
 from ..pipeline import Generator
 from ..util import files
@@ -84,4 +86,9 @@ def make_record(gen: Generator, index: int, layout: DatasetLayout,
     h, w = frame.instances.shape
     image = {"id": index, "file_name": name, "width": w, "height": h, "mask_file": mask_name,
              "camera": camera_record(frame, config.camera), "meta": image_meta(frame)}
-    return {"index": index, "split": split, "image": image, "annotations": anns}
+    rec = {"index": index, "split": split, "image": image, "annotations": anns}
+    if frame.ignore is not None:
+        files.write_file(layout.ignore_file(index, split), encode_ignore_png(frame.ignore))
+        image["ignore_file"] = ignore_name(index, split)
+        rec["ignore"] = ignore_annotations(frame)
+    return rec

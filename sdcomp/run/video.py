@@ -30,11 +30,12 @@ from ..annotate import camera_record
 from ..clips import ClipGenerator
 from ..errors import UserError
 from ..io.clip_layout import VIDEO_FORMAT, VIDEO_FORMAT_VERSION, ClipLayout
+from ..io.layout import IGNORE_SUFFIX
 from ..io.mot import gt_lines, seqinfo_text
-from ..io.png import encode_png16
+from ..io.png import encode_ignore_png, encode_png16
 from ..io.video_coco import join_parts, sequence_part
 from ..io.yolo import data_yaml, label_text
-from ..scene.video import VideoConfig
+from ..scene.video import VideoConfig, sequence_split
 from ..util import files
 from ..util.pool import imap_ordered, note
 from ..util.progress import Progress
@@ -91,10 +92,13 @@ def render_frames(clips: ClipGenerator, out: str, task: tuple[int, int, int]) ->
         quality = f.frame_info.scene.jpeg_quality
         files.write_file(layout.image(s, k, ext), encode_image(f.image, ext, quality))
         files.write_file(layout.mask(s, k), encode_png16(f.instances))
+        if f.ignore is not None:
+            files.write_file(layout.ignore_mask(s, k), encode_ignore_png(f.ignore))
+            image["ignore_file"] = f"{layout.name(s)}/masks/{k + 1:06d}{IGNORE_SUFFIX}"
         if "yolo" in config.format:
             text = label_text(f.instances, f.objects, seg=config.yolo_seg)
             files.write_file(layout.label(s, k), text.encode())
-        records.append({"s": s, "k": k, "image": image, "objects": f.objects})
+        records.append({"s": s, "k": k, "image": image, "objects": f.objects + f.ignored})
     return records
 
 
@@ -228,6 +232,7 @@ def finish_sequence(video: VideoConfig, layout: ClipLayout, s: int, records: lis
     files.write_file(layout.flight(s), (json.dumps(flight) + "\n").encode())
     entry = {"name": layout.name(s), "width": config.width, "height": config.height,
              "fps": video.fps, "length": video.frames,
+             "split": sequence_split(s, config.val_fraction),
              "flight": flight[0]["flight"] if flight else ""}
     part = sequence_part(s, entry, ((r["k"], r["image"], r["objects"]) for r in records))
     files.write_file(layout.part(s), (json.dumps(part) + "\n").encode())
@@ -266,6 +271,25 @@ def write_mp4(layout: ClipLayout, s: int, video: VideoConfig) -> Path:
     return dest
 
 
+def video_yaml(video: VideoConfig, layout: ClipLayout, finished: list[int]) -> str:
+    """``data.yaml`` of the ``finished`` sequences: each sequence's ``images/`` folder under
+    ``train:`` or ``val:`` by :func:`sequence_split` (whole sequences); without val
+    sequences, val lists the train ones (Ultralytics needs a val set) and says so."""
+    config = video.generator
+    yaml = data_yaml(config.categories, __version__, config.yolo_seg)
+    lines = [ln for ln in yaml.splitlines() if not ln.startswith(("train:", "val:"))]
+    dirs = {split: [f"{layout.name(s)}/images" for s in finished
+                    if sequence_split(s, config.val_fraction) == split]
+            for split in ("train", "val")}
+    lines += ["train:", *[f"  - {d}" for d in dirs["train"]]]
+    if dirs["val"]:
+        lines += ["val:", *[f"  - {d}" for d in dirs["val"]]]
+    else:
+        lines += ["val:  # no val sequences (--val-fraction): the train ones",
+                  *[f"  - {d}" for d in dirs["train"]]]
+    return "\n".join(lines) + "\n"
+
+
 def write_video_meta(video: VideoConfig, layout: ClipLayout, status: str,
                 shard: tuple[int, int] | None, sequences: list[int]) -> dict:
     """The COCO-video file of the finished sequences (in order), data.yaml with --format
@@ -278,11 +302,7 @@ def write_video_meta(video: VideoConfig, layout: ClipLayout, status: str,
     coco = join_parts(parts, config.categories, info)
     files.atomic_write_bytes(layout.coco, (json.dumps(coco) + "\n").encode())
     if "yolo" in config.format:
-        yaml = data_yaml(config.categories, __version__, config.yolo_seg)
-        lines = [ln for ln in yaml.splitlines() if not ln.startswith(("train:", "val:"))]
-        dirs = [f"{layout.name(s)}/images" for s in finished]
-        lines += ["train:", *[f"  - {d}" for d in dirs], "val:", *[f"  - {d}" for d in dirs]]
-        files.atomic_write_bytes(layout.data_yaml, ("\n".join(lines) + "\n").encode())
+        files.atomic_write_bytes(layout.data_yaml, video_yaml(video, layout, finished).encode())
     counts = {"sequences": len(finished), "frames": len(coco["images"]),
               "annotations": len(coco["annotations"]), "tracks": len(coco["tracks"])}
     meta: dict[str, Any] = {"format": VIDEO_FORMAT, "format_version": VIDEO_FORMAT_VERSION,

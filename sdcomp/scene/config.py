@@ -38,6 +38,8 @@ from .settings import check_float, int_pair, load_toml, names, setting, setting_
 from .water import SKY_KINDS, WATER_NAMES, parse_water
 
 IMAGE_FORMATS = ("jpg", "png")
+#: what --unlabelled does with objects of interest that cannot be labelled
+UNLABELLED = ("draw", "skip")
 #: annotation formats of --format (COCO JSON, Ultralytics YOLO label files)
 LABEL_FORMATS = ("coco", "yolo")
 MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 digits)
@@ -66,16 +68,27 @@ class GeneratorConfig:
     seed: int = setting(0, "int", "random seed: image i depends only on (seed, i, options)",
                         "S", 0, 2**63 - 1)
     val_fraction: float = setting(0.2, "float", "fraction of images in the val split (exact "
-                                  "per 100 images)", "F", 0.0, 1.0)
+                                  "per 100 images; video: of whole sequences)", "F", 0.0,
+                                  1.0)
     image_format: str = setting("jpg", "custom", "image file format", "jpg|png")
     jpeg_quality: Param = setting("90-95", "param", "JPEG quality, 1-100 (a value, range "
                                   "lo-hi or list)", "Q", 1.0, 100.0, integer=True)
-    min_visible_px: int = setting(4, "int", "objects with fewer visible pixels are not "
-                                  "annotated (counted as dropped)", "PX", 1, 100_000_000)
-    min_in_frame: float = setting(0.25, "float", "objects cut by the frame's edge are "
-                                  "annotated only when at least this fraction of their "
-                                  "projected silhouette is inside the frame (no slivers at "
-                                  "the edges; 0: all)", "F", 0.0, 1.0)
+    min_visible_px: int = setting(4, "int", "objects of interest with fewer visible pixels "
+                                  "are not labelled: their pixels become an ignore region",
+                                  "PX", 1, 100_000_000)
+    min_in_frame: float = setting(0.0, "float", "objects cut by the frame's edge are labelled "
+                                  "only when at least this fraction of their projected "
+                                  "silhouette is inside the frame, else their pixels become "
+                                  "an ignore region (0: every cut object is labelled by what "
+                                  "is visible, as SeaDronesSee, COCO and MOTChallenge do)",
+                                  "F", 0.0, 1.0)
+    unlabelled: str = setting("draw", "custom", "objects of interest that cannot be labelled "
+                              "(too few pixels, too thin): draw them and mark an ignore "
+                              "region, or skip drawing them (for formats without ignore "
+                              "regions: YOLO)", "draw|skip")
+    ignored_category: bool = setting(False, "bool", "COCO ignore regions are annotations of "
+                                     "category 0 'ignored', as SeaDronesSee's, instead of "
+                                     "iscrowd entries of the object's own category")
     amodal: bool = setting(False, "bool", "also store amodal masks (the whole projected "
                            "object, ignoring occlusion and water)")
     format: tuple[str, ...] = setting(("coco",), "custom", "annotation formats: coco (JSON), "
@@ -198,6 +211,9 @@ class GeneratorConfig:
         if self.image_format not in IMAGE_FORMATS:
             raise SettingError("image_format", f"{{name}} {self.image_format!r} is unknown; "
                                                f"use {' or '.join(IMAGE_FORMATS)}")
+        if self.unlabelled not in UNLABELLED:
+            raise SettingError("unlabelled", f"{{name}} {self.unlabelled!r} is unknown; "
+                                             f"use {' or '.join(UNLABELLED)}")
         if self.camera not in (*CAMERA_PRESETS, "custom"):
             raise SettingError("camera", f"{{name}} {self.camera!r} is unknown; use one of "
                                          f"{', '.join(CAMERA_PRESETS)} or custom (with --fov, "

@@ -48,15 +48,6 @@ SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7
 # lens, full sensor width in 16:9, i.e. 65.5 degrees across, 72.8 diagonally (fx = 2987 px)
 SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.0)), 1)
 
-#: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
-#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts and placed
-#: where its boxes lie in the frame (:data:`SDS_FRAMES`); the water
-#: of Lake Constance, where it was filmed (oligotrophic: chlorophyll 1-3 mg/m^3, little
-#: CDOM, Secchi depths of 6-10 m), which is the ``coastal`` water type at turbidity 0.2-0.8
-#: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
-#: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
-#: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
-#: not annotate (logs, foam)
 # Where in the frame SeaDronesSee's boxes lie, per class (its 3840 x 2160 metadata frames):
 # the uniform ranges whose 10th and 90th percentiles are the boxes' centres'. The operator
 # frames the swimmers and appliances (near the centre and below it); boats, jet skis and
@@ -66,6 +57,15 @@ SDS_FRAMES = {"swimmer": (0.38, 0.27, 0.80, 0.86), "boat": (0.15, 0.04, 0.85, 0.
               "life_saving_appliances": (0.31, 0.43, 0.79, 0.82),
               "buoy": (0.15, 0.0, 0.83, 0.71)}
 
+#: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
+#: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts and placed
+#: where its boxes lie in the frame (:data:`SDS_FRAMES`); the water
+#: of Lake Constance, where it was filmed (oligotrophic: chlorophyll 1-3 mg/m^3, little
+#: CDOM, Secchi depths of 6-10 m), which is the ``coastal`` water type at turbidity 0.2-0.8
+#: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
+#: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
+#: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
+#: not annotate (logs, foam); ignore regions as its category 0 ``ignored``
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n, "frame": list(SDS_FRAMES[k])}
                 for k, n in SDS_CLASSES],
@@ -76,6 +76,7 @@ SEADRONESSEE: dict[str, Any] = {
     "width": 3840, "height": 2160,
     "water": ["coastal"], "turbidity": "0.2-0.8", "shallow": 0.1,
     "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
+    "ignored_category": True,
 }
 
 #: named presets: field values applied over the defaults

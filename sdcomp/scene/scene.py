@@ -112,6 +112,7 @@ class Scene:
     seeds: FeatureSeeds
     shadows: bool = True  # object shadows on the water and floor
     glitter: bool = True  # the sun's glitter drawn as sparkles
+    hidden: tuple[int, ...] = ()  # placements not drawn (--unlabelled skip)
 
     @property
     def gsd(self) -> float:

@@ -8,6 +8,7 @@ Units: seconds, frames per second, metres per second.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -16,6 +17,16 @@ from .config import GeneratorConfig
 from .flight import FLIGHTS
 from .params import Param
 from .settings import names, setting, setting_of
+
+
+def sequence_split(s: int, val_fraction: float) -> str:
+    """``"val"`` or ``"train"`` for sequence ``s``: whole sequences, never frames of one
+    across splits. Sequence ``s`` is val when ``floor((s + 1) f) > floor(s f)``, so the first
+    ``n`` sequences hold exactly ``floor(n f)`` val ones, spread evenly (f = 0.2: sequences
+    4, 9, 14, ...), whatever ``--sequences`` a run or its ``--resume`` asks for."""
+    f = float(val_fraction)
+    before, upto = math.floor(round(s * f, 9)), math.floor(round((s + 1) * f, 9))
+    return "val" if upto > before else "train"
 
 
 @dataclass(frozen=True)
