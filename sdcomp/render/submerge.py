@@ -154,7 +154,6 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
         return above, alpha.copy()
     t_img = np.exp(d[..., None] * -column.k_img)  # (n, n, 3)
     t_col = np.exp(d[..., None] * -column.k_col)
-    seen = below * t_img
     wet = d[under > 0.5]
     mean_depth = float(wet.mean()) if wet.size else 0.0
     a = alpha[..., None]
@@ -165,8 +164,8 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
         # little of it, a broad hull most
         scattered = below * (np.exp(d[..., None] * -column.k_obj) - t_img)
         veil = cv2.GaussianBlur(scattered * a, (0, 0), veil_sigma, borderType=cv2.BORDER_CONSTANT)
-        seen += veil / np.maximum(a, 1e-4)
-    else:
+        seen = below * t_img + veil / np.maximum(a, 1e-4)
+    else:  # a veil under half a pixel: the scattered light lands where the image does
         seen = below * np.exp(d[..., None] * -column.k_obj)
     seen *= np.float32(column.transmission)
     seen += (1.0 - t_col) * column.deep + column.reflection
