@@ -158,16 +158,20 @@ def test_stats_table_and_figure(small_dataset, tmp_path):
     rc, out, err = sdcomp(["stats", small_dataset, "--out", png])
     assert rc == 0, err
     rows = {line[:24].strip(): line.split()[-3:] for line in out.splitlines()
-            if line.startswith(("images", "objects:"))}
+            if line.startswith(("images", "objects:", "ignore regions"))}
     n = {s: len(coco[s]["images"]) for s in coco}
     assert rows["images"] == [str(n["train"]), str(n["val"]), str(n["train"] + n["val"])]
     empty = {s: sum(1 for im in coco[s]["images"]
-                    if not any(a["image_id"] == im["id"] for a in coco[s]["annotations"]))
+                    if not any(a["image_id"] == im["id"] and not a["iscrowd"]
+                               for a in coco[s]["annotations"]))
              for s in coco}
     assert rows["images with no objects"][-1] == str(empty["train"] + empty["val"])
-    assert rows["objects: bluerov2"][-1] == str(sum(len(c["annotations"]) for c in coco.values()))
+    labelled = [a for c in coco.values() for a in c["annotations"] if not a["iscrowd"]]
+    assert rows["objects: bluerov2"][-1] == str(len(labelled))
+    assert rows["ignore regions"][-1] == str(sum(len(c["annotations"])
+                                                 for c in coco.values()) - len(labelled))
     s = dataset_stats(small_dataset, bins=5)
-    areas = [a["area"] for c in coco.values() for a in c["annotations"]]
+    areas = [a["area"] for a in labelled]
     assert sum(s["sizes"]["bluerov2"].values()) == len(areas)
     assert s["sizes"]["bluerov2"]["small"] == sum(a < 32 ** 2 for a in areas)
     alts = [im["meta"]["height_above_takeoff(meter)"] for c in coco.values()

@@ -54,7 +54,7 @@ if train:
     out["label_warnings"] = [m for s in ("train", "val") for m in np.load(
         folder / "labels" / f"{s}.cache", allow_pickle=True).item().get("msgs", [])]
 # Ultralytics' own rasteriser on every polygon of the val labels
-ious = []
+ious, areas = [], []
 for label in sorted((folder / "labels" / "val").glob("*.txt")):
     inst = decode_png16((folder / "masks" / "val" / (label.stem + ".png")).read_bytes())
     h, w = inst.shape
@@ -63,7 +63,8 @@ for label in sorted((folder / "labels" / "val").glob("*.txt")):
         drawn = polygon2mask((h, w), [xy.reshape(-1)], downsample_ratio=1).astype(bool)
         mask = inst == k + 1
         ious.append(float((drawn & mask).sum() / (drawn | mask).sum()))
-out["ious"] = ious
+        areas.append(int(mask.sum()))
+out["ious"], out["areas"] = ious, areas
 print("RESULT " + json.dumps(out))
 """
 
@@ -129,9 +130,13 @@ def test_polygons_through_ultralytics_close_up(tmp_path, sprites_dir):
                       "--yolo-seg", "--val-fraction", "0.5", "--out", out,
                       "--sprites", sprites_dir])
     assert rc == 0, err
-    ious = run_ultralytics(out, tmp_path, train=False)["ious"]
+    result = run_ultralytics(out, tmp_path, train=False)
+    ious, areas = np.array(result["ious"]), np.array(result["areas"])
     assert len(ious) > 10
-    assert np.mean(ious) > 0.995 and min(ious) > 0.95, ious
+    # a mask in pieces is joined by bridges a pixel wide: on a mask of a dozen pixels one
+    # bridge pixel costs 0.08 IoU, on one of 50 px or more under 0.05
+    assert ious.mean() > 0.995 and ious[areas >= 50].min() > 0.95, (ious, areas)
+    assert (ious * (areas + 2) >= areas).all(), (ious, areas)  # at most 2 px extra
 
 
 def test_supervision_reads_each_split(seg):
@@ -147,7 +152,7 @@ def test_supervision_reads_each_split(seg):
     for path, _, det in ds:
         image_id = int(Path(path).stem)
         inst = decode_png16((seg / "masks" / gt.imgs[image_id]["mask_file"]).read_bytes())
-        anns = sorted(gt.loadAnns(gt.getAnnIds(imgIds=[image_id])),
+        anns = sorted(gt.loadAnns(gt.getAnnIds(imgIds=[image_id], iscrowd=False)),
                       key=lambda a: a["instance_id"])
         assert len(det) == len(anns)
         if not anns:

@@ -28,6 +28,7 @@ from hypothesis import strategies as st
 from hypothesis.errors import InvalidArgument
 
 from sdcomp.errors import UserError
+from sdcomp.io.layout import IGNORE_SUFFIX
 from sdcomp.run import RunOptions, run
 from sdcomp.scene.config import GeneratorConfig, load_toml
 from sdcomp.scene.settings import setting_of
@@ -269,11 +270,16 @@ def check_run(mapping: dict, sprites: Path, photos: Path | None = None) -> None:
             img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
             assert img.shape == (config.height, config.width, 3)
         assert counts["objects_dropped"] >= 0 and counts["annotations"] >= 0
-        mask_ids = 0
+        mask_ids = ignore_masks = 0
         for p in (out / "masks").glob("*/*"):
             m = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-            mask_ids += len(np.unique(m[m > 0]))
+            if p.name.endswith(IGNORE_SUFFIX):  # 255 on the ignore regions, 0 elsewhere
+                assert m.dtype == np.uint8 and set(np.unique(m)) == {0, 255}
+                ignore_masks += 1
+            else:
+                mask_ids += len(np.unique(m[m > 0]))
         assert mask_ids == counts["annotations"]
+        assert (ignore_masks > 0) == (counts["objects_ignored"] > 0)
 
 
 EXTREMES = [

@@ -62,8 +62,8 @@ def test_a_run_of_unannotatable_objects_warns(tmp_path, sprites_dir):
                         "--workers", "1", "--no-progress", "--out", tmp_path / "far",
                         "--sprites", sprites_dir])
     assert rc == 0
-    assert "wrote 3 images" in out and "0 annotations" in out
-    assert "none of the 6 objects placed could be annotated" in err
+    assert "wrote 3 images" in out and "0 objects labelled" in out and "6 not visible" in out
+    assert "none of the 6 objects placed could be labelled" in err
     assert "--altitude" in err and "--min-visible-px" in err
 
 

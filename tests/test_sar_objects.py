@@ -129,7 +129,8 @@ def test_weights_are_checked_and_kept_in_config_files():
     assert c.to_dict()["objects"] == [{"mesh": "boat", "category": "boat", "weight": 2.0},
                                       {"mesh": "buoy", "category": "buoy"}]
     assert GeneratorConfig.from_mapping({"objects": c.to_dict()["objects"]}) == c
-    with pytest.raises(UserError, match="unknown key 'colour'; use mesh, category, weight and frame"):
+    with pytest.raises(UserError,
+                       match="unknown key 'colour'; use mesh, category, weight and frame"):
         GeneratorConfig(objects=[{"mesh": "boat", "colour": "red"}])
 
 

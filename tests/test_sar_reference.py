@@ -39,10 +39,12 @@ def pair(tmp_path_factory, sprites_dir):
 
 def test_coco_file_loads_with_seadronessees_categories(pair):
     _, out, _ = pair
-    real = {c["id"]: c["name"] for c in load_val()["categories"] if c["id"] > 0}
+    real = {c["id"]: c["name"] for c in load_val()["categories"]}  # with 0: "ignored"
     coco = COCO(str(out / "annotations" / "instances_train.json"))
     assert {c["id"]: c["name"] for c in coco.loadCats(coco.getCatIds())} == real
     assert set(coco.getCatIds()) == set(real) and len(coco.getAnnIds()) > 500
+    # the ignore regions are SeaDronesSee's: category 0, iscrowd
+    assert all(a["iscrowd"] == (a["category_id"] == 0) for a in coco.dataset["annotations"])
 
 
 def test_class_shares_and_boxes_per_frame(pair):

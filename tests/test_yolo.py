@@ -169,11 +169,16 @@ def test_polygons_agree_with_coco_and_masks(datasets):
             assert hi == pytest.approx([x + bw - 0.5 - VERTEX_INSET,
                                         y + bh - 0.5 - VERTEX_INSET], abs=1e-4)
             mask = inst == ann["instance_id"]
+            # one piece without holes is drawn back exactly; a mask in pieces (a submerged
+            # object's faded parts) is joined by bridges that add pixels, never lose one
+            simple = (cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)[0] == 2
+                      and holes(mask) == 0)
             for drawn in fill_like_consumers(poly, (H, W)):
                 assert (drawn >= mask).all()  # never a pixel lost
-                exact += bool((drawn == mask).all())
+                assert not simple or (drawn == mask).all(), (im["file_name"], ann["id"])
+                exact += simple
             n += 1
-    assert n > 20 and exact >= 0.9 * 2 * n
+    assert n > 20 and exact >= 0.75 * 2 * n
 
 
 def test_mask_polygon_shapes():

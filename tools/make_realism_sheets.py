@@ -5,13 +5,18 @@ annotated boxes in red. Writes OUT (JPEG) and a half-size OUT_view.png.
     python tools/make_realism_sheets.py docs/realism/sheet_after.jpg
     # the "before" sheet: the same script with PYTHONPATH=<a checkout of 8cc98f8>
 """
-import sys, numpy as np, cv2
+import sys
+
+import cv2
+import numpy as np
+
 import sdcomp
+
 try:
     from sdcomp import Generator, GeneratorConfig
 except ImportError:
-    from sdcomp.generator import Generator
     from sdcomp.config import GeneratorConfig
+    from sdcomp.generator import Generator
 rows = [(5, 90), (15, 90), (40, 90), (15, 45), (40, 30)]
 cols = 5
 tiles = []
@@ -24,7 +29,8 @@ for alt, pitch in rows:
         for a in s.annotations:
             x, y, w, h = [int(round(v)) for v in a["bbox"]]
             cv2.rectangle(im, (x - 2, y - 2), (x + w + 1, y + h + 1), (255, 60, 60), 1)
-        cv2.putText(im, f"{alt} m, pitch {pitch}", (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(im, f"{alt} m, pitch {pitch}", (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5,
+                    (255, 255, 255), 1, cv2.LINE_AA)
         row.append(im)
     tiles.append(np.hstack(row))
 sheet = np.vstack(tiles)

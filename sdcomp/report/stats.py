@@ -3,7 +3,8 @@
 Reads the folder that ``sdcomp generate`` wrote (the COCO files, or the run's journal
 ``records.jsonl`` when the run wrote YOLO labels only) and reports:
 
-- images, images with no objects and objects per category, per split;
+- images, images with no objects, objects per category and ignore regions (COCO
+  ``iscrowd`` entries: visible objects too small to label), per split;
 - object sizes in pixels (COCO ``area``, the mask's pixel count) against the COCO bounds:
   small < 32^2, medium 32^2 to 96^2, large >= 96^2 pixels;
 - histograms of the per-image metadata: altitude (m), gimbal pitch (degrees below the
@@ -39,9 +40,9 @@ META_HISTOGRAMS = (("height_above_takeoff(meter)", "altitude", "m"),
 WATER_KEY = "water_color"
 
 
-def _entries(folder: Path) -> tuple[list[tuple[str, dict, list]], dict[int, str]]:
-    """(split, image, annotations) of every image, and the category names by id: from the
-    COCO files, or from the journal where there are none."""
+def _entries(folder: Path) -> tuple[list[tuple[str, dict, list, list]], dict[int, str]]:
+    """(split, image, annotations, ignore regions) of every image, and the category names
+    by id: from the COCO files, or from the journal where there are none."""
     layout = DatasetLayout(folder)
     if any(layout.coco_file(s).is_file() for s in SPLITS):
         ds = load_dataset(folder, "all")
@@ -50,7 +51,8 @@ def _entries(folder: Path) -> tuple[list[tuple[str, dict, list]], dict[int, str]
             raise UserError(f"{str(folder)!r} is not a generated dataset (no COCO files, no "
                             f"records.jsonl): give the --out folder of `sdcomp generate`")
         ds = journal_dataset(folder)
-    return [(e.split, e.image, e.annotations) for e in ds.entries], dict(ds.categories)
+    return ([(e.split, e.image, e.annotations, e.ignore) for e in ds.entries],
+            dict(ds.categories))
 
 
 def _histogram(values: Sequence[float], bins: int) -> dict:
@@ -75,7 +77,8 @@ def dataset_stats(folder: str | Path, bins: int = 10) -> dict:
     """The statistics of the dataset in ``folder`` as a JSON-able dict::
 
         {"folder", "categories": {id: name},
-         "splits": {split: {"images", "empty_images", "objects": {name: n}}},
+         "splits": {split: {"images", "empty_images", "objects": {name: n},
+                            "ignore_regions"}},
          "sizes": {name: {"small", "medium", "large", "sqrt_area_px": [...]}},
          "meta": {label: histogram}, "water": {colour: images}}
 
@@ -94,9 +97,11 @@ def dataset_stats(folder: str | Path, bins: int = 10) -> dict:
     roots: list[float] = []
     meta_values: dict[str, list[float]] = {label: [] for _, label, _ in META_HISTOGRAMS}
     water: dict[str, int] = {}
-    for split, image, anns in entries:
-        s = splits.setdefault(split, {"images": 0, "empty_images": 0, "objects": {}})
+    for split, image, anns, ignore in entries:
+        s = splits.setdefault(split, {"images": 0, "empty_images": 0, "objects": {},
+                                      "ignore_regions": 0})
         s["images"] += 1
+        s["ignore_regions"] += len(ignore)
         s["empty_images"] += not anns
         _count_objects(anns, cat_name, s["objects"], sizes, roots)
         _count_meta(image.get("meta") or {}, meta_values, water)
@@ -177,6 +182,8 @@ def format_table(stats: dict) -> str:
     for name in names:
         per = [splits[s]["objects"].get(name, 0) for s in splits]
         rows.append([f"objects: {name}", *per, sum(per)])
+    per = [splits[s].get("ignore_regions", 0) for s in splits]
+    rows.append(["ignore regions", *per, sum(per)])
     widths = [max(len(str(r[0])) for r in [["counts"], *rows])] + [
         max(len(str(c)), *(len(str(r[i + 1])) for r in rows)) for i, c in enumerate(cols)]
     out = [f"dataset {stats['folder']}", "", _row(["counts", *cols], widths)]
