@@ -20,6 +20,8 @@ from sdcomp.atlas.store import read_index
 from sdcomp.cli.atlas import main as atlas_main
 from sdcomp.cli.generate import build_parser, config_from_args
 from sdcomp.cli.mesh import main as mesh_main
+from sdcomp.pipeline import Generator
+from sdcomp.scene.config import GeneratorConfig
 
 from .datasets import cli, files, generate
 
@@ -49,7 +51,14 @@ def test_dataset_of_a_kind_and_a_variant(dataset, sprites_dir):
         assert read_index(sprites_dir / f"{name}.json")["size_px"] == 96
     assert read_index(sprites_dir / "swimmer-03.json")["size_px"] == KIND_ATLAS[
         "swimmer"].size
-    assert not (sprites_dir / "swimmer-00.json").exists()  # only what the run uses
+    # only what the run uses is loaded (the shared atlas folder holds other tests' too)
+    config = GeneratorConfig(objects=["life_saving_appliances",
+                                      {"mesh": "swimmer-03", "category": "person"}],
+                             clutter=2, clutter_kinds=["buoy", "log"])
+    loaded = set(Generator(config, sprites_dir).compositor.assets.sprites)
+    assert {k for k in loaded if k.startswith("swimmer")} == {"swimmer-03"}
+    assert {k for k in loaded if not k.startswith("clutter")} == {
+        "swimmer-03", *sar.variant_names("life_saving_appliances")}
     for v in range(sar.VARIANTS["buoy"]):
         index = read_index(sprites_dir / f"clutter-buoy-{v:02d}.json")
         assert index["size_px"] == CLUTTER_ATLAS.size
