@@ -233,10 +233,10 @@ def test_oblique_gsd_at_image_centre(shapes):
 
 # --------------------------------------------------------------------------- 2. occlusion
 
-@pytest.mark.parametrize("turbidity,draft", [(0.0, 1.0), (0.5, 0.45)], ids=["clear", "dim"])
+@pytest.mark.parametrize("turbidity,draft", [(0.0, 1.0), (0.5, 0.4)], ids=["clear", "dim"])
 def test_floating_object_hides_submerged_one(shapes, turbidity, draft):
     """A: a box deep under water (clear: ~0.8 m under clear water, weight ~0.8; dim: ~0.2 m
-    under middling water, weight ~0.6, still seen whole). B: a floating box over part of it."""
+    under middling water, weight ~0.65, still seen whole). B: a floating box over part of it."""
     deep = _obj(BOX_MODEL, draft=draft)
     floating = _obj(BOX_MODEL, x=0.7, y=0.25, heading=65.0)
     both = _render(shapes, [deep, floating], turbidity=turbidity)

@@ -18,7 +18,11 @@ component of the Jaffe-McGlamery imaging model); the rest (``exp(-(K_d + k_B) d)
 that) has been scattered on the way and arrives as a veil over the object's surroundings,
 drawn as the object's light blurred by :data:`VEIL_PER_METRE` per metre of depth (what
 spreads beyond the object's footprint is not drawn: a thin limb fades, a broad hull keeps
-its brightness). In clear
+its brightness). The water's own light from behind the object is scattered the same way:
+the part of it that the object blocks from the image (``exp(-(K_d + k_C) d)`` minus the
+image's share) comes back into the footprint as the blurred surroundings, so a thin limb's
+shadow fills in with the water's colour (its contrast decays with ``c``, as Duntley's
+contrast transmittance has it) while a broad hull keeps its shadow. In clear
 ocean water a body half a metre down keeps most of its image; in coastal water about half;
 in turbid, lake and algal water next to nothing below a few decimetres. The mask rule's
 weight is the image's share.
@@ -144,7 +148,9 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     submerged parts are blurred by ``blur_per_metre`` metres (Gaussian sigma) per metre of
     depth (one blur, for 1.5 times the submerged part's mean depth, mixed in with depth).
     The light scattered on its way up (``exp(-k_obj d) - exp(-k_img d)``) is blurred by
-    :data:`VEIL_PER_METRE` metres per metre of the mean depth. The weight
+    :data:`VEIL_PER_METRE` metres per metre of the mean depth, and the water's light that
+    the object blocks beyond its image (``exp(-k_col d) - exp(-k_img d)`` of ``deep``) comes
+    back where the blurred coverage leaves room. The weight
     (:mod:`sdcomp.annotate`) is ``alpha`` times the luminance of the image's transmittance
     ``exp(-k_img d)``: the fraction of the pixel's light that is the object's image."""
     eps = max(pitch_m, 0.01)
@@ -164,7 +170,12 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
         # little of it, a broad hull most
         scattered = below * (np.exp(d[..., None] * -column.k_obj) - t_img)
         veil = cv2.GaussianBlur(scattered * a, (0, 0), veil_sigma, borderType=cv2.BORDER_CONSTANT)
-        seen = below * t_img + veil / np.maximum(a, 1e-4)
+        # the water behind the object, seen past it by the same small-angle scattering: the
+        # object's shadow in the water's light is blurred too, a thin limb's filled in
+        around = 1.0 - cv2.GaussianBlur(alpha, (0, 0), veil_sigma,
+                                        borderType=cv2.BORDER_CONSTANT)[..., None]
+        fill = np.maximum(t_col - t_img, 0.0) * column.deep * np.clip(around, 0.0, 1.0)
+        seen = below * t_img + (veil + fill) / np.maximum(a, 1e-4)
     else:  # a veil under half a pixel: the scattered light lands where the image does
         seen = below * np.exp(d[..., None] * -column.k_obj)
     seen *= np.float32(column.transmission)

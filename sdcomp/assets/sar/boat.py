@@ -23,6 +23,12 @@ from . import boat_decked, boat_open, palette
 from .common import jitter, pick
 
 SUB_TYPES = ("motorboat", "rib", "sailboat", "cabin_cruiser", "rowing", "paddle")
+#: the sub-type of variant ``v`` is ``SUB_TYPE_CYCLE[v % len(SUB_TYPE_CYCLE)]``: weighted as
+#: boats on a lake or coast in summer are seen from a drone, decked motor and sail boats most
+#: (motorboats 4 in 12, sailboats and cabin cruisers 2 each), rescue and tender RIBs 2, a
+#: rowing boat and a kayak or canoe one each
+SUB_TYPE_CYCLE = ("motorboat", "rib", "sailboat", "cabin_cruiser", "rowing", "paddle",
+                  "motorboat", "rib", "sailboat", "cabin_cruiser", "motorboat", "motorboat")
 
 
 def _r(x: float, nd: int = 3) -> float:
@@ -166,7 +172,7 @@ _DRAW = {"motorboat": _draw_motorboat, "rib": _draw_rib, "sailboat": _draw_sailb
 
 def draw(rng: np.random.Generator, variant: int) -> dict:
     """The drawn parameters of boat ``variant`` (JSON-able; metres, kg, degrees, sRGB)."""
-    sub = SUB_TYPES[variant % len(SUB_TYPES)]
+    sub = SUB_TYPE_CYCLE[variant % len(SUB_TYPE_CYCLE)]
     params = {"kind": "boat", "sub_type": sub, **_DRAW[sub](rng)}
     n_crew = {"rowing": int(params.get("rower", False)),
               "paddle": params.get("crew", 0)}.get(sub, 0)

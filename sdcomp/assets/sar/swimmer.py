@@ -2,8 +2,8 @@
 
 Poses (``params["pose"]["name"]``):
 
-- ``tread``: upright, treading water, hands sculling at the surface; the waterline at the
-  neck or through the shoulders (at the chest in a life jacket).
+- ``tread``: upright, treading water, hands sculling a few decimetres under the surface;
+  the waterline at the neck or through the shoulders (at the chest in a life jacket).
 - ``wave``: upright, one arm raised straight up (the distress wave); neck above water.
 - ``distress``: instinctive drowning response: upright, head tilted back, arms pressing
   sideways at the surface; only the face above water.
@@ -92,7 +92,8 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
     feet_pointed = [_dir(rng, (0.2, 0.1, -1), 10), _dir(rng, (0.2, -0.1, -1), 10)]
     p: dict = {"name": name, "head_pitch": 0.0, "head_yaw": 0.0, "roll": 0.0, "flip": False}
     if name in ("tread", "wave"):
-        arms = _sym(rng, (0.35, 0.75, -0.45), (0.65, 0.55, -0.10))
+        # upper arms down and out, forearms sculling forward 0.2-0.4 m under the surface
+        arms = _sym(rng, (0.30, 0.50, -0.81), (0.70, 0.35, -0.62))
         legs = [[_dir(rng, (0.55, 0.25, -0.8)), _dir(rng, (-0.3, 0.15, -0.95))],
                 [_dir(rng, (0.15, -0.25, -0.95)), _dir(rng, (-0.45, -0.1, -0.88))]]
         if name == "wave":
