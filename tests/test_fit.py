@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from sdcomp import GeneratorConfig
-from sdcomp.errors import run_cli
+from sdcomp.errors import UserError, run_cli
 from sdcomp.fitting import fit_footage
 from sdcomp.fitting.config_file import config_text, write_config
 from sdcomp.fitting.footage import working_size
@@ -235,3 +235,55 @@ def test_cli_writes_a_config_generate_reads(tmp_path, sprites_dir, capsys):
     data = json.loads((out.parent / "fit_report.json").read_text())
     assert {r["statistic"] for r in data["statistics"]} >= set(STATS)
     assert (out.parent / "fit_crops.png").stat().st_size > 1000
+
+
+# --------------------------------------------------------------------------- reading footage
+
+def _plain_frames(folder: Path, n: int = 4, size: int = 192) -> list[np.ndarray]:
+    """``n`` noisy blue-green frames written as PNG files f000.png...; the frames."""
+    from .conftest import water_like
+
+    folder.mkdir(parents=True, exist_ok=True)
+    frames = [water_like(size, size, k) for k in range(n)]
+    for k, f in enumerate(frames):
+        cv2.imwrite(str(folder / f"f{k:03d}.png"), cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    return frames
+
+
+def _coco(path: Path, boxes: dict[str, list], meta: dict) -> Path:
+    images = [{"id": k + 1, "file_name": f"{name}.png", "width": 192, "height": 192,
+               "meta": meta} for k, name in enumerate(boxes)]
+    anns = [{"id": 100 * (k + 1) + j, "image_id": k + 1, "category_id": 1, "bbox": b,
+             "area": b[2] * b[3], "iscrowd": 0}
+            for k, name in enumerate(boxes) for j, b in enumerate(boxes[name])]
+    path.write_text(json.dumps({"images": images, "annotations": anns,
+                                "categories": [{"id": 1, "name": "boat"}]}))
+    return path
+
+
+def test_labels_mask_objects_and_give_geometry(tmp_path):
+    from sdcomp.fitting.footage import read_footage
+
+    _plain_frames(tmp_path / "f", 2)
+    meta = {"height_above_takeoff(meter)": 42.0, "gimbal_pitch(degrees)": 80.0}
+    labels = _coco(tmp_path / "l.json", {"f000": [[0, 0, 100, 192]], "f001": []}, meta)
+    foot = read_footage(tmp_path / "f", labels)
+    assert foot.frames == 2 and foot.altitude == [42.0, 42.0] and foot.pitch == [80.0, 80.0]
+    assert read_footage(tmp_path / "f", labels, altitude=15.0).altitude == [15.0]
+    everything = _coco(tmp_path / "all.json", {"f000": [[0, 0, 192, 192]],
+                                               "f001": [[0, 0, 192, 192]]}, {})
+    with pytest.raises(UserError, match="free of labelled objects"):
+        read_footage(tmp_path / "f", everything)
+
+
+def test_video_frames_are_read(tmp_path):
+    from sdcomp.fitting.footage import read_footage
+
+    frames = _plain_frames(tmp_path / "png", 6, 128)
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (128, 128))
+    for f in frames:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+    foot = read_footage(path, max_frames=4)
+    assert foot.frames == 4 and (foot.width, foot.height) == (128, 128)

@@ -55,8 +55,9 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
              f"{config_path} --out DIR`).", "", f"- {result.geometry}",
              *(f"- {n}" for n in f.notes), "",
              "## Statistics: footage, fitted, defaults", "",
-             "Median over frames (10th-90th percentile); distance to the footage in units of "
-             "the fit's scale (median difference + a quarter of the p10 and p90 "
+             "Median over frames (10th-90th percentile); \"defaults\" are the generator's "
+             "defaults at the footage's frame size and geometry; distance to the footage in "
+             "units of the fit's scale (median difference + a quarter of the p10 and p90 "
              "differences); definitions in docs/fit.md.", "",
              "| statistic | unit | footage | fitted | defaults | distance fitted | "
              "distance defaults | closer |", "|---|---|---|---|---|---|---|---|"]
@@ -72,7 +73,8 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
     default = GeneratorConfig()
     for key, _ in KEYS:
         lines.append(f"| {key} | {_value(result.config, key)} | {_value(default, key)} |")
-    lines += ["", f"Water: frames nearest each type's colour: {s.water_votes}.", ""]
+    lines += ["", f"Water: frames nearest each type's colour (the last inversion): "
+                  f"{s.water_votes}.", ""]
     if picture:
         lines += ["## Crops", "", f"![footage, fitted, defaults]({picture})", "",
                   f"Rows: footage, fitted, defaults; {CROP_PX} px crops at the working size."]
@@ -88,7 +90,8 @@ def _reach_text(missed: list[str], far: list[str]) -> str:
     parts = []
     if missed:
         parts.append(f"Not reached (the defaults are as close or closer): {', '.join(missed)}; "
-                     "no candidate setting moves them nearer the footage.")
+                     "no candidate setting moves them nearer the footage without moving "
+                     "others further (the fit minimises the sum).")
     if far:
         parts.append(f"Still more than 2 units off: {', '.join(far)} (the generator's "
                      f"settings cannot match the footage there, or the footage has too few "

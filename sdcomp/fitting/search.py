@@ -87,6 +87,21 @@ def water_only(config: GeneratorConfig) -> GeneratorConfig:
     return with_settings(config, count=0, clutter=0)
 
 
+_GENERATOR: dict[tuple, Generator] = {}  # this process's last water generator
+
+
+def water_generator(config: GeneratorConfig, sprites_dir: str | Path) -> Generator:
+    """A :class:`Generator` for the camera and frame size of ``config`` (kept for the next
+    call with the same ones: building its textures and sprites takes seconds, and the
+    search's candidates change only the scene settings, which it takes per call)."""
+    key = (str(sprites_dir), config.camera, config.fov, config.sensor_px, config.width,
+           config.height, config.seed)
+    if key not in _GENERATOR:
+        _GENERATOR.clear()
+        _GENERATOR[key] = Generator(config, sprites_dir, progress=False)
+    return _GENERATOR[key]
+
+
 class Renderer:
     """Renders water-only frames of candidate configs with one :class:`Generator` (the
     compositor's assets do not depend on the scene settings) and measures them; results
@@ -94,7 +109,7 @@ class Renderer:
 
     def __init__(self, base: GeneratorConfig, sprites_dir: str | Path, n_render: int):
         self.base = water_only(base)
-        self.gen = Generator(self.base, sprites_dir, progress=False)
+        self.gen = water_generator(self.base, sprites_dir)
         self.n_render = n_render
         self._cache: dict[str, tuple[dict, dict, list]] = {}
 
