@@ -230,6 +230,11 @@ def test_cli_writes_a_config_generate_reads(tmp_path, sprites_dir, capsys):
     config = GeneratorConfig.from_mapping(tomllib.loads(out.read_text()))
     assert config.width == SIZE and "turbid" in config.water
     assert str(config.altitude) == "30"
+    from sdcomp.cli import main
+
+    rc = run_cli(main, ["generate", "--config", str(out), "--dump-config"])
+    dumped = capsys.readouterr().out
+    assert rc == 0 and 'water = ["turbid"' in dumped and 'altitude = 30' in dumped, dumped
     report = (out.parent / "fit_report.md").read_text()
     assert "| luminance |" in report and "geometry from the footage" in report
     data = json.loads((out.parent / "fit_report.json").read_text())
@@ -274,6 +279,23 @@ def test_labels_mask_objects_and_give_geometry(tmp_path):
                                                "f001": [[0, 0, 192, 192]]}, {})
     with pytest.raises(UserError, match="free of labelled objects"):
         read_footage(tmp_path / "f", everything)
+
+
+def test_dji_xmp_gives_geometry(tmp_path):
+    from sdcomp.fitting.footage import read_footage
+
+    frame = _plain_frames(tmp_path / "png", 1)[0]
+    ok, data = cv2.imencode(".jpg", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+    xmp = (b'http://ns.adobe.com/xap/1.0/\x00<x:xmpmeta><rdf:Description '
+           b'drone-dji:RelativeAltitude="+35.20" drone-dji:GimbalPitchDegree="-60.50">'
+           b'</rdf:Description></x:xmpmeta>')
+    app1 = b"\xff\xe1" + (len(xmp) + 2).to_bytes(2, "big") + xmp
+    (tmp_path / "dji").mkdir()
+    (tmp_path / "dji" / "DJI_0001.JPG").write_bytes(data[:2].tobytes() + app1 +
+                                                    data[2:].tobytes())
+    foot = read_footage(tmp_path / "dji")
+    assert foot.altitude == [35.2] and foot.pitch == [60.5]
+    assert read_footage(tmp_path / "png").altitude == []
 
 
 def test_video_frames_are_read(tmp_path):

@@ -1,10 +1,12 @@
 """Reading the user's footage for ``sdcomp fit``: frames at one working size, their water
 statistics (:mod:`.stats`, objects of the optional labels kept out) and their geometry
-(``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``)."""
+(``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``, else the photos' DJI
+XMP)."""
 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,6 +22,12 @@ from .stats import image_stats as measure_image
 from .stats import stack, summary
 
 MAX_SIDE = 512  #: frames larger than this (long side, px) are measured resized to it
+XMP_HEAD = 1 << 17  #: bytes of a photo searched for DJI's XMP attributes
+#: DJI XMP attributes (drone-dji namespace) -> (meta key, sign): DJI's gimbal pitch is
+#: negative below the horizon (-90 straight down), sdcomp's positive
+DJI_XMP = {"RelativeAltitude": (ALTITUDE_KEY, 1.0), "GimbalPitchDegree": (PITCH_KEY, -1.0)}
+_XMP_VALUE = re.compile(rb'drone-dji:(RelativeAltitude|GimbalPitchDegree)\s*=\s*"([^"]*)"|'
+                        rb'<drone-dji:(RelativeAltitude|GimbalPitchDegree)>([^<]*)<')
 
 
 @dataclass
@@ -81,8 +89,12 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
         rows.append(measure_image(rgb, empty_water((h, w), None, boxes)))
         if len(crops) < 4:
             crops.append(rgb)
-        alts.append(num(frame.meta, ALTITUDE_KEY))
-        pitches.append(num(frame.meta, PITCH_KEY))
+        meta = frame.meta
+        if (num(meta, ALTITUDE_KEY) is None or num(meta, PITCH_KEY) is None) and (
+                frame.source is not None and frame.source.frame is None):
+            meta = {**dji_meta(frame.path), **meta}
+        alts.append(num(meta, ALTITUDE_KEY))
+        pitches.append(num(meta, PITCH_KEY))
     per = stack(rows)
     if per["luminance"].size == 0:
         raise UserError(f"{path}: none of the {len(fs.frames)} frames has a 64 x 64 patch of "
@@ -93,6 +105,30 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     out.notes = [*fs.notes, f"measured at {w} x {h} px"]
     if unread:
         out.notes.append(f"{unread} frames could not be read")
+    return out
+
+
+def dji_meta(path: Path) -> dict[str, float]:
+    """SeaDronesSee-style meta (altitude above take-off m, gimbal pitch degrees below the
+    horizon) from the DJI XMP of a photo (``drone-dji:RelativeAltitude``,
+    ``GimbalPitchDegree``, as attributes or elements in its first :data:`XMP_HEAD` bytes);
+    {} when it has none or the file cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(XMP_HEAD)
+    except OSError:
+        return {}
+    out = {}
+    for m in _XMP_VALUE.finditer(head):
+        name = (m.group(1) or m.group(3)).decode()
+        text = (m.group(2) if m.group(1) else m.group(4)).decode("ascii", "replace")
+        try:
+            value = float(text.strip())
+        except ValueError:
+            continue
+        key, sign = DJI_XMP[name]
+        if math.isfinite(value):
+            out[key] = sign * value
     return out
 
 
