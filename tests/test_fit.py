@@ -197,8 +197,14 @@ def test_cli_help_is_listed_and_clear(capsys):
     text = capsys.readouterr().out
     assert text.startswith("usage: sdcomp fit")
     for word in ("FRAMES", "--out", "--labels", "--altitude", "--pitch", "--size",
-                 "generate --config", "default"):
+                 "generate --config", "docs/fit.md"):
         assert word in text, word
+    from sdcomp.cli.fit import build_parser
+
+    from .test_cli import option_entries
+
+    missing = [e for e in option_entries(build_parser()) if "default" not in e]
+    assert not missing, missing
 
 
 @pytest.mark.parametrize("argv,needle", [

@@ -189,9 +189,9 @@ def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path,
            n_render: int = 16, groups: tuple[str, ...] | None = None, passes: int = 2,
            log: Callable[[str], None] | None = None) -> SearchResult:
     """Fit ``base`` (size and geometry already the footage's) to ``footage``: water by
-    colour inversion, then ``passes`` rounds of coordinate search over ``groups`` (default:
-    all of :data:`CANDIDATES`), each followed by the water again under the fitted camera
-    and light."""
+    colour inversion, then up to ``passes`` rounds of coordinate search over ``groups``
+    (default: all of :data:`CANDIDATES`), each followed by the water again under the fitted
+    camera and light; a round that changes nothing ends the search."""
     t0 = time.perf_counter()
     say = log or (lambda s: None)
     r = Renderer(base, sprites_dir, n_render)
@@ -199,9 +199,12 @@ def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path,
     config, trials = base, []  # type: GeneratorConfig, list[Trial]
     config, votes, turb = _fit_water(r, config, footage, say)
     for _ in range(passes):
+        start = config
         for group in groups if groups is not None else tuple(CANDIDATES):
             config = _coordinate(r, config, footage, group, trials, say)
         config, votes, turb = _fit_water(r, config, footage, say)
+        if config == start:  # a pass that changed nothing: the next would not either
+            break
     fitted, per, frames = r.measure(config)
     return SearchResult(config, fitted, per, frames, default_summary, default_frames, trials,
                         votes, turb, time.perf_counter() - t0)
