@@ -140,8 +140,8 @@ class Renderer:
             return image
         ok, data = cv2.imencode(".jpg", cv2.cvtColor(image, cv2.COLOR_RGB2BGR),
                                 [cv2.IMWRITE_JPEG_QUALITY, int(scene.jpeg_quality)])
-        decoded = cv2.imdecode(data, cv2.IMREAD_COLOR)
-        if not ok or decoded is None:
+        decoded = cv2.imdecode(data, cv2.IMREAD_COLOR) if ok else None
+        if decoded is None:
             raise RuntimeError(f"could not JPEG-encode a frame of shape {image.shape}")
         return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
 
