@@ -8,6 +8,7 @@ The public API is importable from here (loaded on first use, so ``python -m sdco
 starts fast and ``import sdcomp`` imports neither torch nor OpenCV)::
 
     from sdcomp import GeneratorConfig, Generator, RunOptions, run
+    from sdcomp import fit          # your footage -> the GeneratorConfig that looks like it
     from sdcomp import SyntheticDetection, GeneratedCoco, collate      # needs torch
 
 Module paths of earlier versions (``sdcomp.config``, ``sdcomp.generator``, ``sdcomp.writer``,
@@ -34,7 +35,7 @@ API = {
     "load_dataset": "sdcomp.io.layout", "contact_sheet": "sdcomp.report.sheet",
     "dataset_stats": "sdcomp.report.stats", "UserError": "sdcomp.errors",
     "SyntheticDetection": "sdcomp.torch_datasets", "GeneratedCoco": "sdcomp.torch_datasets",
-    "collate": "sdcomp.torch_datasets",
+    "collate": "sdcomp.torch_datasets", "fit": "sdcomp.fitting.api",
 }
 
 #: old module path -> its new home (the old path stays importable as an alias)

@@ -9,6 +9,7 @@
     sdcomp bench ...              detector benchmarks    (= python -m sdcomp.bench)
     sdcomp realism DIR ...        the realism report     (= python -m sdcomp.realism)
     sdcomp check DIR              check a dataset        (= python -m sdcomp.check)
+    sdcomp fit FRAMES --out F     fit to your footage    (= python -m sdcomp.fitting)
 
 Each job's parser and ``main(argv) -> int`` live in a module of this package
 (:mod:`sdcomp.cli.generate`, ...); ``python -m sdcomp.<job>`` runs the same ``main``.
@@ -51,6 +52,9 @@ COMMANDS: dict[str, tuple[str, str, str, str]] = {
     "realism": ("sdcomp.cli.realism", "main", "sdcomp.realism",
                 "how real a dataset looks: water statistics, targets, real-vs-synthetic "
                 "classifier"),
+    "fit": ("sdcomp.cli.fit", "main", "sdcomp.fitting",
+            "fit the scene (water, sky, sun, camera look) to your footage: a config for "
+            "generate --config"),
 }
 #: modules that may be missing from an installation, and what to do about it
 OPTIONAL = {"sdcomp.bench.cli": "this installation of sdcomp has no sdcomp.bench package; "

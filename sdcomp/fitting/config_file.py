@@ -1,0 +1,55 @@
+"""The commented TOML config that ``sdcomp fit`` writes: only the fitted keys, each with a
+comment saying where its value came from; ``sdcomp generate --config`` and ``sdcomp video
+--config`` read it (every other setting keeps its default)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..scene.config import GeneratorConfig
+from ..scene.settings import load_toml, toml_value
+from ..util.files import atomic_path
+
+#: (config key, comment) of every key written, in file order
+KEYS: tuple[tuple[str, str], ...] = (
+    ("width", "frame size the footage was measured at (pixels); the look's noise, blur and "
+              "compression are drawn for this output size"),
+    ("height", ""),
+    ("altitude", "metres"),
+    ("pitch", "degrees below the horizon"),
+    ("water", "water types whose rendered colour is nearest the footage's water colour"),
+    ("turbidity", "covers the 10th-90th percentile of the frames' inverted turbidities"),
+    ("wind", "m/s: texture (high-pass std), glitter and whitecaps"),
+    ("sky", "skies drawn per image"),
+    ("sun_elevation", "degrees: brightness and glitter"),
+    ("look", "camera look preset: noise, sharpness, tone, vignetting"),
+    ("recording", "video (H.264/H.265 frames) or photo (JPEG)"),
+    ("jpeg_quality", "compression of the written files (blockiness)"),
+    ("motion_blur", "probability of motion blur (sharpness)"),
+    ("defocus_blur", "probability of defocus blur (sharpness)"),
+)
+
+
+def config_text(config: GeneratorConfig, header: list[str], geometry_fitted: bool) -> str:
+    """The TOML text of the fitted keys of ``config`` (see :data:`KEYS`), after ``header``
+    comment lines; altitude and pitch only when ``geometry_fitted``."""
+    values = config.to_dict()
+    lines = [f"# {h}" for h in header] + [""]
+    for key, comment in KEYS:
+        if key in ("altitude", "pitch") and not geometry_fitted:
+            continue
+        if comment:
+            lines.append(f"# {comment}")
+        lines.append(f"{key} = {toml_value(values[key])}")
+    return "\n".join(lines) + "\n"
+
+
+def write_config(path: str | Path, text: str) -> GeneratorConfig:
+    """Write ``text`` to ``path`` atomically, read it back as ``sdcomp generate --config``
+    does and return that config (so a file that would not load is never left behind)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+        config = GeneratorConfig.from_mapping(load_toml(tmp), source=str(path))
+    return config

@@ -1,0 +1,159 @@
+"""Reading the user's footage for ``sdcomp fit``: frames at one working size, their water
+statistics (:mod:`.stats`, objects of the optional labels kept out) and their geometry
+(``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``, else the photos' DJI
+XMP)."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..errors import UserError
+from ..report.realism.patches import PATCH, empty_water
+from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
+from ..report.realism.sources import load_frame, load_real
+from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE
+from .stats import image_stats as measure_image
+from .stats import stack, summary
+
+MAX_SIDE = 512  #: frames larger than this (long side, px) are measured resized to it
+XMP_HEAD = 1 << 17  #: bytes of a photo searched for DJI's XMP attributes
+#: DJI XMP attributes (drone-dji namespace) -> (meta key, sign): DJI's gimbal pitch is
+#: negative below the horizon (-90 straight down), sdcomp's positive
+DJI_XMP = {"RelativeAltitude": (ALTITUDE_KEY, 1.0), "GimbalPitchDegree": (PITCH_KEY, -1.0)}
+_XMP_VALUE = re.compile(rb'drone-dji:(RelativeAltitude|GimbalPitchDegree)\s*=\s*"([^"]*)"|'
+                        rb'<drone-dji:(RelativeAltitude|GimbalPitchDegree)>([^<]*)<')
+
+
+@dataclass
+class Footage:
+    """What ``sdcomp fit`` knows of the footage.
+
+    ``per_image`` {statistic: (n,) float64} over the frames read (n frames with water),
+    ``summary`` {statistic: (p10, p50, p90)}, ``width`` x ``height`` the working size
+    (pixels) frames were measured at, ``altitude`` / ``pitch`` (m, degrees) per frame where
+    known (empty: not known), ``crops`` a few (h, w, 3) uint8 RGB frames at the working
+    size for the report's picture, ``notes`` one-line facts for the report."""
+
+    per_image: dict[str, np.ndarray]
+    summary: dict[str, tuple[float, float, float]]
+    width: int
+    height: int
+    altitude: list[float] = field(default_factory=list)
+    pitch: list[float] = field(default_factory=list)
+    crops: list[np.ndarray] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    frames: int = 0
+
+
+def working_size(width: int, height: int, size: int | None) -> tuple[int, int]:
+    """(w, h) pixels to measure a width x height frame at: its own size, or resized so its
+    long side is ``size`` (default: at most :data:`MAX_SIDE`), aspect kept, at least one
+    patch (64 px) each way."""
+    long_side = max(width, height)
+    target = size if size is not None else min(long_side, MAX_SIDE)
+    f = target / long_side
+    return max(PATCH, round(width * f)), max(PATCH, round(height * f))
+
+
+def read_footage(path: str | Path, labels: str | Path | None = None, size: int | None = None,
+                 max_frames: int = 200, altitude: float | None = None,
+                 pitch: float | None = None, seed: int = 0) -> Footage:
+    """Measure the frames at ``path`` (a folder or file of photos and videos; at most
+    ``max_frames``, a seeded choice). ``labels``: a COCO json or YOLO folder whose boxes are
+    kept out of the statistics (and whose ``meta`` gives altitude and pitch); ``altitude``
+    / ``pitch`` override the meta. UserError when nothing can be read or measured."""
+    if size is not None and not PATCH <= size <= 4096:
+        raise UserError(f"--size {size} is out of range: use {PATCH} to 4096 pixels")
+    if max_frames < 1:
+        raise UserError(f"--max-frames {max_frames} must be at least 1")
+    fs = load_real(path, labels, max_images=max_frames, seed=seed)
+    if not fs.frames:
+        raise UserError(f"{path}: no photos or videos found")
+    s0 = fs.frames[0].source
+    w, h = working_size(s0.width, s0.height, size)
+    rows: list[dict[str, float] | None] = []
+    crops: list[np.ndarray] = []
+    alts, pitches, unread = [], [], 0
+    for frame in fs.frames:
+        loaded = load_frame(frame)
+        if loaded is None:
+            unread += 1
+            continue
+        rgb, boxes = _resize(loaded.rgb, frame.boxes, w, h)
+        rows.append(measure_image(rgb, empty_water((h, w), None, boxes)))
+        if len(crops) < 4:
+            crops.append(rgb)
+        meta = frame.meta
+        if (num(meta, ALTITUDE_KEY) is None or num(meta, PITCH_KEY) is None) and (
+                frame.source is not None and frame.source.frame is None):
+            meta = {**dji_meta(frame.path), **meta}
+        alts.append(num(meta, ALTITUDE_KEY))
+        pitches.append(num(meta, PITCH_KEY))
+    per = stack(rows)
+    if per["luminance"].size == 0:
+        raise UserError(f"{path}: none of the {len(fs.frames)} frames has a 64 x 64 patch of "
+                        f"water free of labelled objects to measure")
+    out = Footage(per, summary(per), w, h, crops=crops, frames=per["luminance"].size)
+    out.altitude = _geometry(altitude, alts, ALTITUDE_RANGE, "altitude")
+    out.pitch = _geometry(pitch, pitches, PITCH_RANGE, "pitch")
+    out.notes = [*fs.notes, f"measured at {w} x {h} px"]
+    if unread:
+        out.notes.append(f"{unread} frames could not be read")
+    return out
+
+
+def dji_meta(path: Path) -> dict[str, float]:
+    """SeaDronesSee-style meta (altitude above take-off m, gimbal pitch degrees below the
+    horizon) from the DJI XMP of a photo (``drone-dji:RelativeAltitude``,
+    ``GimbalPitchDegree``, as attributes or elements in its first :data:`XMP_HEAD` bytes);
+    {} when it has none or the file cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(XMP_HEAD)
+    except OSError:
+        return {}
+    out = {}
+    for m in _XMP_VALUE.finditer(head):
+        name = (m.group(1) or m.group(3)).decode()
+        text = (m.group(2) if m.group(1) else m.group(4)).decode("ascii", "replace")
+        try:
+            value = float(text.strip())
+        except ValueError:
+            continue
+        key, sign = DJI_XMP[name]
+        if math.isfinite(value):
+            out[key] = sign * value
+    return out
+
+
+def _resize(rgb: np.ndarray, boxes: list | None, w: int, h: int
+            ) -> tuple[np.ndarray, list | None]:
+    """``rgb`` (H, W, 3) uint8 resized to w x h (area filter down, cubic up) and its (x, y,
+    w, h) pixel boxes scaled with it."""
+    ih, iw = rgb.shape[:2]
+    if (iw, ih) == (w, h):
+        return rgb, boxes
+    interp = cv2.INTER_AREA if w < iw else cv2.INTER_CUBIC
+    out = cv2.resize(rgb, (w, h), interpolation=interp)
+    if boxes is not None:
+        fx, fy = w / iw, h / ih
+        boxes = [[b[0] * fx, b[1] * fy, b[2] * fx, b[3] * fy] for b in boxes]
+    return out, boxes
+
+
+def _geometry(given: float | None, meta: list, bounds: tuple[float, float], name: str
+              ) -> list[float]:
+    """The values of ``name`` (altitude or pitch): ``given`` (checked against ``bounds``),
+    else the frames' meta values within bounds, else []."""
+    lo, hi = bounds
+    if given is not None:
+        if not (math.isfinite(given) and lo <= given <= hi):
+            raise UserError(f"--{name} {given} is out of range: use {lo:g} to {hi:g}")
+        return [float(given)]
+    return [float(v) for v in meta if v is not None and lo <= v <= hi]

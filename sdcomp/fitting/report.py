@@ -1,0 +1,149 @@
+"""The report of ``sdcomp fit``: the footage's statistics beside the fitted config's and the
+defaults' (markdown and JSON), the settings chosen, and a picture of crops of each at the
+working size (one scale)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..report.realism.crops import Crop, montage
+from ..scene.config import GeneratorConfig
+from ..util.files import atomic_write_bytes, write_png
+from .api import FitResult
+from .config_file import KEYS
+from .stats import EXTRA, SCALES, STATS, UNITS, distance
+
+CROP_PX = 128  #: side of the report picture's crops, pixels of the working size
+
+
+def comparison(result: FitResult) -> list[dict]:
+    """Per statistic (:data:`STATS`, then :data:`EXTRA`): the footage's, fitted and default
+    (p10, p50, p90), the distances to the footage (units of :data:`SCALES`) and whether the
+    fitted one is the closer."""
+    foot, fit, dflt = result.footage.summary, result.search.summary, result.search.default_summary
+    d_fit, d_dflt = distance(fit, foot), distance(dflt, foot)
+    rows = []
+    for k in (*STATS, *EXTRA):
+        row = {"statistic": k, "unit": UNITS[k], "footage": foot[k], "fitted": fit[k],
+               "default": dflt[k]}
+        if k in SCALES:
+            row |= {"fitted_distance": d_fit[k], "default_distance": d_dflt[k],
+                    "closer": bool(d_fit[k] <= d_dflt[k]) if math.isfinite(
+                        d_fit[k] + d_dflt[k]) else None}
+        rows.append(row)
+    return rows
+
+
+def _triple(v) -> str:
+    if not all(math.isfinite(x) for x in v):
+        return "n/a"
+    return f"{v[1]:.4g} ({v[0]:.3g}-{v[2]:.3g})"
+
+
+def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
+    """The report as markdown text."""
+    f, s = result.footage, result.search
+    rows = comparison(result)
+    lines = ["# sdcomp fit", "",
+             f"{f.frames} frames measured at {f.width} x {f.height} px; {s.seconds:.0f} s of "
+             f"search ({len(s.trials)} candidates, {s.per_image['luminance'].size} rendered "
+             f"frames each). Config: `{config_path}` (`sdcomp generate --config "
+             f"{config_path} --out DIR`).", "", f"- {result.geometry}",
+             *(f"- {n}" for n in f.notes), "",
+             "## Statistics: footage, fitted, defaults", "",
+             "Median over frames (10th-90th percentile); \"defaults\" are the generator's "
+             "defaults at the footage's frame size and geometry; distance to the footage in "
+             "units of the fit's scale (median difference + a quarter of the p10 and p90 "
+             "differences); definitions in docs/fit.md.", "",
+             "| statistic | unit | footage | fitted | defaults | distance fitted | "
+             "distance defaults | closer |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        dist = (f"{r['fitted_distance']:.2f} | {r['default_distance']:.2f} | "
+                f"{_closer(r['closer'])}" if "closer" in r else "- | - | report only")
+        lines.append(f"| {r['statistic']} | {r['unit']} | {_triple(r['footage'])} | "
+                     f"{_triple(r['fitted'])} | {_triple(r['default'])} | {dist} |")
+    missed = [r["statistic"] for r in rows if r.get("closer") is False]
+    far = [r["statistic"] for r in rows if r.get("fitted_distance", 0) > 2]
+    lines += ["", _reach_text(missed, far), "", "## Settings", "",
+              "| setting | fitted | default |", "|---|---|---|"]
+    default = GeneratorConfig()
+    for key, _ in KEYS:
+        lines.append(f"| {key} | {_value(result.config, key)} | {_value(default, key)} |")
+    lines += ["", f"Water: frames nearest each type's colour (the last inversion): "
+                  f"{s.water_votes}.", ""]
+    if picture:
+        lines += ["## Crops", "", f"![footage, fitted, defaults]({picture})", "",
+                  f"Rows: footage, fitted, defaults; {CROP_PX} px crops at the working size."]
+    return "\n".join(lines) + "\n"
+
+
+def _closer(ok: bool | None) -> str:
+    return "n/a" if ok is None else ("yes" if ok else "**no**")
+
+
+def _reach_text(missed: list[str], far: list[str]) -> str:
+    """One paragraph on the statistics the fit did not reach."""
+    parts = []
+    if missed:
+        parts.append(f"Not reached (the defaults are as close or closer): {', '.join(missed)}; "
+                     "no candidate setting moves them nearer the footage without moving "
+                     "others further (the fit minimises the sum).")
+    if far:
+        parts.append(f"Still more than 2 units off: {', '.join(far)} (the generator's "
+                     f"settings cannot match the footage there, or the footage has too few "
+                     f"frames to tell).")
+    return " ".join(parts) or "Every statistic is at least as close as the defaults'."
+
+
+def _value(config: GeneratorConfig, key: str) -> str:
+    v = config.to_dict()[key]
+    return ", ".join(map(str, v)) if isinstance(v, list) else str(v)
+
+
+def picture(result: FitResult) -> np.ndarray:
+    """(H, W, 3) uint8 RGB: rows of up to 4 centre crops of the footage, the fitted config's
+    and the defaults' frames, all at the working size."""
+    rows = [("footage", result.footage.crops), ("fitted", result.search.frames),
+            ("defaults", result.search.default_frames)]
+    side = min(CROP_PX, result.footage.width, result.footage.height)
+    out = [(name, [Crop(_centre(a, side), f"{a.shape[1]}x{a.shape[0]}", True) for a in imgs])
+           for name, imgs in rows]
+    return montage(out, "sdcomp fit: footage, fitted, defaults (one scale)", 4, side)
+
+
+def _centre(rgb: np.ndarray, side: int) -> np.ndarray:
+    h, w = rgb.shape[:2]
+    y, x = (h - side) // 2, (w - side) // 2
+    return np.ascontiguousarray(rgb[y:y + side, x:x + side])
+
+
+def write_report(result: FitResult, folder: str | Path, config_path: str) -> Path:
+    """Write ``fit_report.md``, ``fit_report.json`` and ``fit_crops.png`` into ``folder``;
+    returns the markdown's path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_png(picture(result), folder / "fit_crops.png")
+    md = folder / "fit_report.md"
+    atomic_write_bytes(md, markdown(result, config_path, "fit_crops.png").encode())
+    data = {"frames": result.footage.frames, "size": [result.footage.width,
+                                                       result.footage.height],
+            "geometry": result.geometry, "seconds": result.search.seconds,
+            "statistics": comparison(result), "config": result.config.to_dict(),
+            "water_votes": result.search.water_votes,
+            "trials": [{"group": t.group, "settings": t.settings, "loss": t.loss}
+                       for t in result.search.trials]}
+    atomic_write_bytes(folder / "fit_report.json",
+                       json.dumps(data, indent=1, default=_json).encode())
+    return md
+
+
+def _json(o):
+    if isinstance(o, tuple):
+        return list(o)
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    return str(o)
