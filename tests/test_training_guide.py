@@ -31,7 +31,7 @@ def block_after(marker: str, lang: str) -> str:
 
 
 def test_torchvision_example_trains(sprites_dir):
-    code = block_after("<!-- tested: tests/test_readme.py -->", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py -->", "python")
     for old, new in (("range(2000)", "range(3)"),
                      ('sprites_dir="sprites"', f'sprites_dir="{sprites_dir}"')):
         assert code.count(old) == 1, old
@@ -68,7 +68,7 @@ def test_coco_detection_example_trains_on_empty_images(rov, monkeypatch, one_tor
     coco = json.loads((rov / "rov/annotations/instances_train.json").read_text())
     assert any(not [a for a in coco["annotations"] if a["image_id"] == im["id"]]
                for im in coco["images"])
-    code = block_after("<!-- tested: tests/test_readme.py CocoDetection -->", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py CocoDetection -->", "python")
     monkeypatch.chdir(rov)
     scope: dict = {"__name__": "readme_example"}
     exec(compile(code, "docs/training.md", "exec"), scope)
@@ -86,7 +86,7 @@ def test_coco_detection_example_trains_on_empty_images(rov, monkeypatch, one_tor
 
 
 def test_supervision_example(rov, monkeypatch):
-    code = block_after("**supervision** (tested)", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py supervision -->", "python")
     monkeypatch.chdir(rov)
     scope: dict = {"__name__": "readme_example"}
     exec(compile(code, "docs/training.md", "exec"), scope)
