@@ -212,7 +212,7 @@ def figures() -> dict[str, tuple[float, float]]:
 
 def test_figures_table_reads():
     table = figures()
-    assert {"gen-416-ms", "gen-416-ips", "gen-1080-ips", "atlas-bluerov2-s"} <= set(table)
+    assert {"gen-416-ms", "gen-416-ips", "disk-1080-ips", "atlas-bluerov2-s"} <= set(table)
 
 
 def test_quoted_figures_agree_with_the_table():
@@ -240,3 +240,24 @@ def test_figure_check_catches_a_wrong_number():
     wrong = value * (1 + 2 * tol)
     m = QUOTE.search(f"[{wrong:.0f} images/s](figures.md#gen-416-ips)")
     assert m and abs(float(NUMBER.findall(m.group(1))[0]) - value) > tol * value
+
+
+# --------------------------------------------------------------------------- links
+
+LINK = re.compile(r"\]\(([^)#\s]+\.(?:md|toml|jpg|png))(?:#[\w-]*)?\)")
+
+
+def test_readme_is_a_page_and_links_every_docs_page():
+    """README.md stays short and every page under docs/ is linked from it."""
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= 220
+    linked = {(ROOT / target).resolve() for target in LINK.findall(text)}
+    missing = [p.name for p in (ROOT / "docs").glob("*.md") if p.resolve() not in linked]
+    assert not missing, f"docs pages not linked from README.md: {missing}"
+
+
+def test_relative_links_name_existing_files():
+    for page in PAGES:
+        for target in LINK.findall(page.read_text()):
+            if not target.startswith("http"):
+                assert (page.parent / target).exists(), f"{page.name}: {target}"
