@@ -75,3 +75,32 @@ def test_in_process_run_uses_the_environment_folder(tmp_path, monkeypatch, sprit
                       "--no-progress", "--out", tmp_path / "d"])
     assert rc == 0, err
     assert "building" not in err and not (tmp_path / "sprites").exists()
+
+
+def test_one_progress_bar_over_the_atlases(tmp_path, monkeypatch, capsys):
+    """With a progress display (a terminal), atlases built for a run are counted by one bar,
+    'sprite atlases', after the announcing line, not by one bar per atlas (atlases built
+    small here: the bar is what is tested)."""
+    import sdcomp.atlas.cache as cache
+    from sdcomp import Generator, GeneratorConfig
+    from sdcomp.atlas.poses import PoseGrid
+    from sdcomp.atlas.store import AtlasConfig
+
+    real = cache.build_atlas
+
+    def small(mesh, config, **kw):
+        return real(mesh, AtlasConfig(size=16, supersample=1, grid=PoseGrid(80.0, 40.0, 40.0)),
+                    **kw)
+
+    monkeypatch.setattr(cache, "build_atlas", small)
+    meshes = []
+    for name, size in (("crate", (1.2, 0.8, 0.5)), ("barrel", (0.6, 0.6, 0.9))):
+        meshes.append(tmp_path / f"{name}.stl")
+        trimesh.creation.box(extents=size).export(meshes[-1])
+    config = GeneratorConfig.from_mapping({"objects": [
+        {"mesh": str(m), "category": m.stem} for m in meshes], "clutter": 0})
+    Generator(config, tmp_path / "cache", progress=True, build_workers=1)
+    err = capsys.readouterr().err
+    assert err.startswith(f"building 2 sprite atlases once into {tmp_path / 'cache'} (")
+    assert "sprite atlases: 100%" in err and "2/2" in err
+    assert "atlas crate" not in err and "atlas barrel" not in err
