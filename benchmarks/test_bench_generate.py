@@ -59,7 +59,7 @@ def test_bench_in_memory_416(benchmark, machine, default_generator):
             default_generator.render(next(counter))
 
     benchmark.pedantic(batch, rounds=2, iterations=1)
-    # 60-67/s at rest with the water of issue 19; the floors are a quarter of the figures
+    # 60-67/s at rest (docs/figures.md: gen-416-ips); the floors are a quarter of the figures
     assert _report(benchmark, machine, "memory_416", n) > machine.floor(15)
 
 

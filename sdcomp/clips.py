@@ -69,7 +69,7 @@ class ClipGenerator:
     when missing, as :class:`~sdcomp.pipeline.Generator` does). Keeps the sequences it has
     drawn (a few kB each)."""
 
-    def __init__(self, video: VideoConfig, sprites_dir: str | Path = DEFAULT_SPRITES,
+    def __init__(self, video: VideoConfig, sprites_dir: str | Path | None = DEFAULT_SPRITES,
                  progress: bool | None = None, generator: Generator | None = None):
         self.video = video
         self.gen = generator or Generator(video.generator, sprites_dir, progress=progress)

@@ -34,8 +34,9 @@ from .assets import clutter as clutter_meshes
 from .assets import sar
 from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
+from .assets.meshfile import safe_name
 from .atlas.builtin import CLUTTER_ATLAS, object_atlas
-from .atlas.cache import ensure_atlas
+from .atlas.cache import announce_build, ensure_atlas, missing_atlases, sprites_folder
 from .atlas.sprites import SpriteSource
 from .atlas.store import AtlasConfig
 from .errors import UserError
@@ -43,11 +44,18 @@ from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds
 from .render.textures import Textures
 from .scene.config import GeneratorConfig
-from .scene.objects import clutter_assets, clutter_mesh_name, object_assets, object_kind
+from .scene.objects import (
+    CLUTTER_PREFIX,
+    clutter_assets,
+    clutter_mesh_name,
+    object_assets,
+    object_kind,
+)
 from .scene.sample import sample_scene
 from .scene.scene import FeatureSeeds, Role, Scene
+from .util.progress import Progress
 
-DEFAULT_SPRITES = "sprites"
+DEFAULT_SPRITES = None  # the user's atlas folder: see sdcomp.atlas.cache.sprites_folder
 WARM_MAX_SIDE = 1024  # pixels: Generator.warm() prepares sprites for frames up to this size
 
 
@@ -82,24 +90,11 @@ class Generator:
     mesh (the BlueROV2's takes a few seconds; all five kinds' 60 about a minute or two on
     2 cores; see :mod:`sdcomp.atlas.builtin`)."""
 
-    def __init__(self, config: GeneratorConfig, sprites_dir: str | Path = DEFAULT_SPRITES,
+    def __init__(self, config: GeneratorConfig, sprites_dir: str | Path | None = DEFAULT_SPRITES,
                  progress: bool | None = None, build_workers: int | None = None):
         self.config = config
         self.model = config.camera_model()
-        sprites: dict[str, SpriteSource] = {}
-        for o in config.objects:
-            for key in object_assets(o.mesh):
-                if key not in sprites:
-                    mesh = _load_object(key)
-                    sprites[key] = _sprites(mesh, object_atlas(mesh, object_kind(key)),
-                                            sprites_dir, progress, build_workers,
-                                            rebuild=is_builtin(key))
-        if config.clutter > 0:
-            for kind in config.clutter_kinds:
-                for key in clutter_assets(kind):
-                    mesh = _clutter_mesh(key)
-                    sprites[key] = _sprites(mesh, CLUTTER_ATLAS, sprites_dir, progress,
-                                            build_workers, rebuild=kind == mesh.name)
+        sprites = _all_sprites(config, sprites_folder(sprites_dir), progress, build_workers)
         photos = (Backgrounds(config.backgrounds, config.background_labels)
                   if config.backgrounds else None)
         assets = RenderAssets(sprites, Textures.build(config.seed), photos)
@@ -165,6 +160,47 @@ class Generator:
         frame = self.render(index)
         return Sample(frame.image, frame.instances, object_annotations(frame, self.names),
                       image_meta(frame), frame)
+
+
+def _sprite_jobs(config: GeneratorConfig) -> list[tuple[str, str, bool]]:
+    """The atlases a config draws from: (asset key, atlas name, known without building the
+    mesh; whether it is a clutter asset), objects first."""
+    jobs: list[tuple[str, str, bool]] = []
+    for o in config.objects:
+        jobs += [(key, key if is_builtin(key) else safe_name(Path(key)), False)
+                 for key in object_assets(o.mesh)]
+    if config.clutter > 0:
+        jobs += [(key, clutter_mesh_name(key), True)
+                 for kind in config.clutter_kinds for key in clutter_assets(kind)]
+    first: dict[str, tuple[str, str, bool]] = {}
+    for job in jobs:
+        first.setdefault(job[0], job)
+    return list(first.values())
+
+
+def _all_sprites(config: GeneratorConfig, folder: Path, progress: bool | None,
+                 workers: int | None) -> dict[str, SpriteSource]:
+    """Every atlas of ``config`` from ``folder``, those missing built first: announced in one
+    line on stderr (unless ``progress`` is False) and, on a terminal, one progress bar over
+    the atlases instead of one per atlas."""
+    jobs = _sprite_jobs(config)
+    missing = missing_atlases(folder, [name for _, name, _ in jobs])
+    bar = None
+    if missing and progress is not False:
+        announce_build(folder, len(missing))
+        bar = Progress(len(missing), "sprite atlases", enabled=progress, unit="atlas")
+    sprites: dict[str, SpriteSource] = {}
+    for key, name, clutter in jobs:
+        mesh = _clutter_mesh(key) if clutter else _load_object(key)
+        atlas_config = CLUTTER_ATLAS if clutter else object_atlas(mesh, object_kind(key))
+        rebuild = (key.removeprefix(CLUTTER_PREFIX) == mesh.name) if clutter else is_builtin(key)
+        sprites[key] = _sprites(mesh, atlas_config, folder,
+                                False if bar is not None else progress, workers, rebuild)
+        if bar is not None and name in missing:
+            bar.update()
+    if bar is not None:
+        bar.close()
+    return sprites
 
 
 def _sprites(mesh: ColoredMesh, atlas_config: AtlasConfig, sprites_dir: str | Path,

@@ -51,6 +51,7 @@ try:
 except ImportError:  # pragma: no cover - torchvision comes with the dev and bench extras
     raise ImportError("sdcomp.torch_clips needs torchvision (pip install torchvision, or "
                       "pip install 'sdcomp[bench]')") from None
+from .atlas.cache import sprites_folder
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.config import GeneratorConfig
 from .scene.video import VideoConfig, sequence_split
@@ -134,7 +135,7 @@ class SyntheticClips(torch.utils.data.Dataset):
 
     def __init__(self, config: VideoConfig | GeneratorConfig, clip_len: int,
                  clips_per_sequence: int | None = None, stride: int = 1,
-                 sprites_dir: str | Path = DEFAULT_SPRITES,
+                 sprites_dir: str | Path | None = DEFAULT_SPRITES,
                  transforms: ClipTransforms | None = None, split: str = "all"):
         if isinstance(config, GeneratorConfig):
             config = VideoConfig(config)
@@ -153,7 +154,7 @@ class SyntheticClips(torch.utils.data.Dataset):
         self.starts = clip_starts(config.frames, self.clip_len, self.stride,
                                   clips_per_sequence)
         self.clips_per_sequence = len(self.starts)
-        self.sprites_dir = str(sprites_dir)
+        self.sprites_dir = str(sprites_folder(sprites_dir))
         self.transforms = transforms
         # built here, once: atlases are built (or a bad mesh reported) before any worker
         # starts; forked workers inherit it, pickled copies (spawn) rebuild it on first use

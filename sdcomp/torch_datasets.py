@@ -70,6 +70,7 @@ try:
 except ImportError:  # pragma: no cover - torchvision comes with the dev and bench extras
     raise ImportError("sdcomp.torch_datasets needs torchvision (pip install torchvision, or "
                       "pip install 'sdcomp[bench]')") from None
+from .atlas.cache import sprites_folder
 from .io.png import decode_ignore_png, decode_png16
 from .pipeline import DEFAULT_SPRITES, Generator
 from .scene.config import GeneratorConfig
@@ -268,14 +269,14 @@ class SyntheticDetection(torch.utils.data.Dataset):
     """
 
     def __init__(self, config: GeneratorConfig, length: int,
-                 sprites_dir: str | Path = DEFAULT_SPRITES,
+                 sprites_dir: str | Path | None = DEFAULT_SPRITES,
                  transforms: Transforms | None = None,
                  image_dtype: torch.dtype = torch.float32):
         if not isinstance(config, GeneratorConfig):
             raise UserError(f"config must be a GeneratorConfig, not {type(config).__name__}")
         self.config = config
         self.length = _check_length(length)
-        self.sprites_dir = str(sprites_dir)
+        self.sprites_dir = str(sprites_folder(sprites_dir))
         self.transforms = transforms
         self.image_dtype = check_image_dtype(image_dtype)
         # built here, once: atlases are built (or a bad mesh reported) before any worker

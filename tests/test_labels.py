@@ -1,4 +1,4 @@
-"""The labelling policy (issue 26): every visible pixel of an object of interest is in a
+"""The labelling policy: every visible pixel of an object of interest is in a
 label or in an ignore region; ignore regions are COCO ``iscrowd`` entries that COCOeval
 ignores, 8-bit ignore masks beside the instance masks, SeaDronesSee's category 0 with
 ``--ignored-category``; ``--unlabelled skip`` draws nothing that cannot be labelled."""

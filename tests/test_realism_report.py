@@ -186,7 +186,7 @@ def test_targets_pass_and_fail_by_their_definitions():
                                                                                     23.2)}
     failed = {t["target"] for t in evaluate_targets(today) if t["ok"] is False}
     assert failed == {"median saturation in [0.1, 0.25]", "median highpass_std in [4, 8]",
-                      "highpass_std p10-p90 spread >= issue's real (24.1)"}
+                      "highpass_std p10-p90 spread >= reference real (24.1)"}
 
 
 def test_report_without_real_frames(gen_default, tmp_path):

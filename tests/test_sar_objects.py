@@ -72,8 +72,8 @@ def test_equal_weights_draw_as_without_weights():
 
 def test_one_mesh_objects_draw_the_scenes_they_drew_before_kinds():
     """(kind, asset, x, y, heading) of the first scene and the seeds drawn last, recorded
-    with sdcomp before the search-and-rescue kinds (main at commit aad2b9a, with the water
-    of issue 19): the BlueROV2's placements and the clutter's places are the same draws;
+    with sdcomp before the search-and-rescue kinds (commit aad2b9a, with the
+    physically based water): the BlueROV2's placements and the clutter's places are the same draws;
     the clutter boat and buoy are now variants of those kinds, chosen by the draw that chose
     the old ones' paint."""
     before = [("object", "bluerov2", 7.512362, -0.541531, 123.4787),

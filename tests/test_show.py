@@ -470,3 +470,21 @@ def test_folder_without_coco_files_is_read_from_its_journal(tmp_path, sprites_di
     with pytest.raises(UserError, match="records.jsonl is missing") as err:
         load_dataset(yolo_only)
     assert "--resume" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_small_objects_are_zoomed_by_default(tmp_path, capsys):
+    """Objects of a few pixels in a large image: the default sheet has a cell per object
+    (and says why); --no-zoom draws whole images; large objects stay whole images."""
+    small = make_dataset(tmp_path / "small", images=[
+        ("train", [(1, [(100, 80, 4, 3)]), (1, [(300, 200, 5, 4)])]), ("val", [])],
+        size=(640, 480))
+    assert run_cli(main, [str(small), "--cell", "64", "--out", str(tmp_path / "a.png")]) == 0
+    out = capsys.readouterr().out
+    assert "objects are small" in out and "2 objects" in out
+    assert run_cli(main, [str(small), "--cell", "64", "--no-zoom",
+                          "--out", str(tmp_path / "b.png")]) == 0
+    assert "2 of 2 images" in capsys.readouterr().out
+    big = make_dataset(tmp_path / "big")  # objects 10-30 px in a 64 px image
+    assert run_cli(main, [str(big), "--cell", "64", "--out", str(tmp_path / "c.png")]) == 0
+    out = capsys.readouterr().out
+    assert "objects are small" not in out and "5 of 5 images" in out

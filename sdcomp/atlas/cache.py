@@ -1,9 +1,13 @@
-"""An atlas cache folder (``sprites/``): the saved atlas of a mesh and atlas parameters is
-loaded when intact and current, otherwise built and saved (:mod:`sdcomp.atlas.store`), one
-process at a time."""
+"""An atlas cache folder: the saved atlas of a mesh and atlas parameters is loaded when
+intact and current, otherwise built and saved (:mod:`sdcomp.atlas.store`), one process at a
+time. The folder is the user's (:func:`sprites_folder`: ``--sprites``, else
+``$SDCOMP_SPRITES``, else the platform's per-user cache folder), shared by every working
+folder, run and shard."""
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 
 from ..assets.mesh import ColoredMesh
@@ -21,6 +25,44 @@ from .store import (
     read_index,
     save_atlas,
 )
+
+#: the environment variable that names the sprite-atlas folder (``--sprites`` wins over it)
+SPRITES_ENV = "SDCOMP_SPRITES"
+
+
+def user_cache_dir() -> Path:
+    """sdcomp's per-user cache folder: the platform's (``~/.cache/sdcomp`` on Linux,
+    ``~/Library/Caches/sdcomp`` on macOS, ``%LOCALAPPDATA%\\sdcomp\\Cache`` on Windows)."""
+    try:
+        from platformdirs import user_cache_path
+    except ImportError:  # platformdirs missing: the XDG rule, right on Linux
+        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        return Path(base) / "sdcomp"
+    return Path(user_cache_path("sdcomp", appauthor=False))
+
+
+def sprites_folder(given: str | Path | None = None) -> Path:
+    """The sprite-atlas folder: ``given`` (``--sprites``), else ``$SDCOMP_SPRITES``, else
+    ``sprites`` in the user's cache folder (:func:`user_cache_dir`)."""
+    if given is not None and str(given) != "":
+        return Path(given).expanduser()
+    if os.environ.get(SPRITES_ENV):
+        return Path(os.environ[SPRITES_ENV]).expanduser()
+    return user_cache_dir() / "sprites"
+
+
+def missing_atlases(folder: Path, names: list[str]) -> list[str]:
+    """The ``names`` whose atlas is not saved in ``folder`` yet (no index file)."""
+    return [n for n in names if not atlas_paths(folder, n)[1].exists()]
+
+
+def announce_build(folder: Path, n: int, seconds_each: float = 7.0) -> None:
+    """Say on stderr, in one line and at once, that ``n`` atlases are being built, where and
+    for about how long (``seconds_each`` an atlas on one core, shared by the cores)."""
+    minutes = n * seconds_each / max(1, os.cpu_count() or 1) / 60
+    about = f"about {minutes:.0f} min" if minutes >= 1 else "under a minute"
+    print(f"building {n} sprite atlas{'es' if n != 1 else ''} once into {folder} "
+          f"({about} on this machine)", file=sys.stderr, flush=True)
 
 
 def ensure_atlas(mesh: ColoredMesh, config: AtlasConfig, out_dir: str | Path, *,

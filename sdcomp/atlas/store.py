@@ -43,7 +43,7 @@ from .raster import Sprite, render
 
 FORMAT = "sdcomp-atlas"
 FORMAT_VERSION = 1
-DEFAULT_OUT = "sprites"
+DEFAULT_OUT = None  # the user's atlas folder: sdcomp.atlas.cache.sprites_folder
 
 
 class AtlasError(UserError):

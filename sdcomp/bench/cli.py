@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from dataclasses import fields, replace
 from pathlib import Path
 
+from ..atlas.cache import sprites_folder
 from ..cli import prog
 from ..errors import UserError, run_cli
 from ..pipeline import DEFAULT_SPRITES
@@ -65,7 +66,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="auto (cuda when present, else cpu), cpu or cuda[:N] (default: auto)")
     p.add_argument("--cache", metavar="DIR", help="generated datasets (default: OUT/datasets)")
     p.add_argument("--sprites", default=DEFAULT_SPRITES, metavar="DIR",
-                   help="sprite atlas folder, built there if missing (default: %(default)s)")
+                   help="sprite atlas folder, built there if missing (default: "
+                   "$SDCOMP_SPRITES, else the user's cache folder)")
     p.add_argument("--workers", type=int, default=2, metavar="N",
                    help="generator worker processes (default: %(default)s)")
     p.add_argument("--test-coco", metavar="FILE", help="COCO file of your real labelled "
@@ -199,7 +201,7 @@ def _context(args, out: Path):
         raise UserError(f"--workers {workers} is out of range: use 1 or more")
     cache_dir = getattr(args, "cache", None)
     cache = CacheOptions(Path(cache_dir) if cache_dir else out / "datasets",
-                         Path(getattr(args, "sprites", DEFAULT_SPRITES)), workers,
+                         sprites_folder(getattr(args, "sprites", DEFAULT_SPRITES)), workers,
                          getattr(args, "progress", None))
     return RunContext(out, cache, resolve_device(args.device), getattr(args, "progress", None))
 

@@ -23,7 +23,7 @@ from ..assets import sar
 from ..assets.library import MeshSpec, kind_of
 from ..assets.mesh import ColoredMesh
 from ..atlas.builtin import object_atlas
-from ..atlas.cache import ensure_atlas
+from ..atlas.cache import ensure_atlas, sprites_folder
 from ..atlas.poses import PoseGrid
 from ..atlas.sheet import kind_sheet, write_png
 from ..atlas.store import (
@@ -56,7 +56,8 @@ def add_build_arguments(b: argparse.ArgumentParser) -> None:
     add_mesh_arguments(b)
     g = PoseGrid()
     kinds = " (search-and-rescue kinds: their own, see sdcomp.atlas.builtin)"
-    b.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help="atlas folder")
+    b.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                   help="atlas folder (default: $SDCOMP_SPRITES, else the user's cache folder)")
     b.add_argument("--size", type=int, default=None, metavar="PX",
                    help=f"sprite side, pixels (default: {AtlasConfig.size}{kinds})")
     b.add_argument("--supersample", type=int, default=None, metavar="K",
@@ -107,7 +108,8 @@ def _config_from_args(args: argparse.Namespace, base: AtlasConfig | None = None
 
 def _rebuild_command(spec: MeshSpec, args: argparse.Namespace) -> str:
     q = shlex.quote
-    parts = ["python -m sdcomp.atlas build", f"--mesh {q(spec.source)}", f"--out {q(args.out)}"]
+    parts = ["python -m sdcomp.atlas build", f"--mesh {q(spec.source)}",
+             f"--out {q(str(sprites_folder(args.out)))}"]
     if not spec.is_builtin:
         parts += [f"--units {spec.units}", f"--up {spec.up}"]
         if args.color:
@@ -166,7 +168,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers {args.workers} must be at least 1")
     spec = mesh_spec_from_args(args)
-    out = Path(args.out)
+    out = sprites_folder(args.out)
     _check_out_dir(out)
     if spec.source not in sar.KINDS:
         _build_one(spec.load(), kind_of(spec.source) if spec.is_builtin else None, args,

@@ -65,7 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="settings searched, comma-separated, in order (default: all: "
                         "%(default)s)")
     p.add_argument("--sprites", metavar="DIR", default=DEFAULT_SPRITES, help="sprite atlas "
-                   "folder (built there when missing)")
+                   "folder, built there when missing (default: $SDCOMP_SPRITES, else the "
+                   "user's cache folder)")
     p.add_argument("--seed", metavar="S", type=int, default=0, help="seed of the frame choice "
                    "and the rendered frames")
     add_verbosity_flags(p)

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 
+from ..atlas.cache import sprites_folder
 from ..errors import UserError, run_cli
 from ..pipeline import DEFAULT_SPRITES
 from ..run.engines import ENGINES
@@ -73,7 +74,8 @@ def add_run_options(run_g: argparse._ArgumentGroup) -> None:
     run_g.add_argument("--config", metavar="FILE", help="TOML file of options (keys as the "
                        "flags, with _ or -; default: none)")
     run_g.add_argument("--sprites", default=DEFAULT_SPRITES, metavar="DIR",
-                       help="sprite atlas folder, built there if missing (default: %(default)s)")
+                       help="sprite atlas folder, built there if missing (default: "
+                       "$SDCOMP_SPRITES, else the user's cache folder)")
     run_g.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                        help="progress line (default: only on a terminal)")
     run_g.add_argument("--shard", metavar="K/N", default=None,
@@ -194,7 +196,7 @@ def run_options(args: argparse.Namespace) -> RunOptions:
         raise UserError(f"--scheduler {args.scheduler} is for --engine dask: add --engine "
                         f"dask, or drop --scheduler")
     return RunOptions(Path(args.out), workers, args.resume, args.overwrite, args.progress,
-                      Path(args.sprites), shard)
+                      sprites_folder(args.sprites), shard)
 
 
 def dropped_warning(counts: dict, config: GeneratorConfig) -> str | None:

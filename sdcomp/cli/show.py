@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..errors import UserError, run_cli
-from ..io.layout import SPLIT_CHOICES, load_dataset
+from ..io.layout import SPLIT_CHOICES, Dataset, load_dataset
 from ..report.sheet import (
     SELECT_CHOICES,
     category_colour_name,
@@ -29,7 +29,7 @@ from ..report.sheet import (
     write_sheet,
 )
 from ..report.video_sheet import find_sequence, is_video_folder, load_video, strip, write_preview
-from ..report.zoom import CONTEXT, zoom_sheet
+from ..report.zoom import CONTEXT, SMALL_IN_CELL, median_side_in_cell, zoom_sheet
 from . import Parser, prog
 
 
@@ -52,9 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="spread: evenly over the images; first: the first n; random: n drawn "
                         "with --seed")
     p.add_argument("--seed", type=int, default=0, help="seed of --select random")
-    p.add_argument("--zoom", action="store_true",
+    p.add_argument("--zoom", action=argparse.BooleanOptionalAction, default=None,
                    help="one cell per object: a crop around it, magnified (--n counts "
-                        "objects; default: whole images)")
+                        "objects); --no-zoom: whole images (default: zoom when the objects "
+                        f"would be under {SMALL_IN_CELL:g} px across in a whole-image cell)")
     p.add_argument("--context", type=float, default=CONTEXT, metavar="X",
                    help="with --zoom: crop side as a multiple of the object's box side")
     p.add_argument("--no-labels", dest="labels", action="store_false",
@@ -89,6 +90,16 @@ def _check_out(out: Path) -> None:
         raise UserError(f"--out {str(out)!r}: folder {str(parent)!r} is not writable")
 
 
+def _small_objects(ds: Dataset, cell: int) -> bool:
+    """Whether the objects would be specks in whole-image cells (said in one line)."""
+    side = median_side_in_cell(ds, cell)
+    if side is None or side >= SMALL_IN_CELL:
+        return False
+    print(f"objects are small (median {side:.1f} px across in a {cell} px cell): one "
+          f"magnified cell per object (--no-zoom: whole images)")
+    return True
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if is_video_folder(args.folder):
@@ -102,6 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ds = load_dataset(args.folder, args.split)
     out = Path(args.out) if args.out is not None else ds.folder / "sheet.png"
     _check_out(out)
+    if args.zoom is None:
+        args.zoom = _small_objects(ds, args.cell)
     if args.zoom:
         if not 1.0 <= args.context <= 50.0:
             raise UserError(f"--context {args.context:g} is out of range: use 1 to 50 (times "

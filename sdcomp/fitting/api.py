@@ -58,7 +58,7 @@ def base_config(footage: Footage, seed: int = 0) -> tuple[GeneratorConfig, str]:
 def fit_footage(frames: str | Path, labels: str | Path | None = None,
                 altitude: float | None = None, pitch: float | None = None,
                 size: int | None = None, max_frames: int = 200, n_render: int = 16,
-                sprites_dir: str | Path = DEFAULT_SPRITES,
+                sprites_dir: str | Path | None = DEFAULT_SPRITES,
                 groups: tuple[str, ...] | None = None, passes: int = 2, seed: int = 0,
                 log: Callable[[str], None] | None = None) -> FitResult:
     """Measure the footage at ``frames`` (folder or file of photos and videos; ``labels``

@@ -90,7 +90,7 @@ def water_only(config: GeneratorConfig) -> GeneratorConfig:
 _GENERATOR: dict[tuple, Generator] = {}  # this process's last water generator
 
 
-def water_generator(config: GeneratorConfig, sprites_dir: str | Path) -> Generator:
+def water_generator(config: GeneratorConfig, sprites_dir: str | Path | None) -> Generator:
     """A :class:`Generator` for the camera and frame size of ``config`` (kept for the next
     call with the same ones: building its textures and sprites takes seconds, and the
     search's candidates change only the scene settings, which it takes per call)."""
@@ -107,7 +107,7 @@ class Renderer:
     compositor's assets do not depend on the scene settings) and measures them; results
     are cached per config."""
 
-    def __init__(self, base: GeneratorConfig, sprites_dir: str | Path, n_render: int):
+    def __init__(self, base: GeneratorConfig, sprites_dir: str | Path | None, n_render: int):
         self.base = water_only(base)
         self.gen = water_generator(self.base, sprites_dir)
         self.n_render = n_render
@@ -185,7 +185,7 @@ def invert_water(table: dict[str, np.ndarray], per_image: dict[str, np.ndarray]
     return keep, (round(float(lo), 2), round(float(hi), 2)), votes, turb.tolist()
 
 
-def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path,
+def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path | None,
            n_render: int = 16, groups: tuple[str, ...] | None = None, passes: int = 2,
            log: Callable[[str], None] | None = None) -> SearchResult:
     """Fit ``base`` (size and geometry already the footage's) to ``footage``: water by

@@ -17,7 +17,7 @@ Layout of a dataset folder ``root`` (format version 2), one sub-folder per split
                                  run continues from; the label files are made from it)
     dataset.json                 config, package version, seed, status and counts
 
-Version 1 (sdcomp before issue 16) had flat images/, masks/, labels/ and COCO ids = number + 1;
+Version 1 (no per-split folders) had flat images/, masks/, labels/ and COCO ids = number + 1;
 :func:`check_format_version` refuses to continue such a folder.
 
 :class:`DatasetLayout` is the only place that spells these names. :func:`load_dataset` is the

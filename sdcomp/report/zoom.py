@@ -40,6 +40,23 @@ def zoom_objects(ds: Dataset) -> list[tuple[Entry, dict]]:
     return out
 
 
+#: objects smaller than this in a whole-image cell (median box side, sheet pixels) are
+#: shown zoomed by default
+SMALL_IN_CELL = 12.0
+
+
+def median_side_in_cell(ds: Dataset, cell: int) -> float | None:
+    """The objects' median box side (sqrt(w h)) as drawn in a whole-image cell of ``cell``
+    pixels, or None when the dataset has no objects."""
+    sides = []
+    for e, a in zoom_objects(ds):
+        longest = max(float(e.image.get("width", 0)), float(e.image.get("height", 0)))
+        if longest > 0:
+            w, h = a["bbox"][2:]
+            sides.append((float(w) * float(h)) ** 0.5 * cell / longest)
+    return float(np.median(sides)) if sides else None
+
+
 def crop_window(bbox: list[float], context: float = CONTEXT) -> tuple[int, int, int]:
     """(x0, y0, side) of the square crop, image pixels, around a COCO box [x, y, w, h]."""
     x, y, w, h = (float(v) for v in bbox)

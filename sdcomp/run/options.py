@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..pipeline import DEFAULT_SPRITES
+from ..atlas.cache import sprites_folder
 from ..scene.config import GeneratorConfig
 from .shards import shard_range
 
@@ -19,7 +19,7 @@ class RunOptions:
     resume: bool = False
     overwrite: bool = False
     progress: bool | None = None
-    sprites_dir: Path = Path(DEFAULT_SPRITES)
+    sprites_dir: Path = field(default_factory=sprites_folder)  # the user's atlas folder
     #: (K, N): render only shard K of N of the image indices (see sdcomp.run.shards)
     shard: tuple[int, int] | None = None
 

@@ -1,7 +1,7 @@
 """The realism report: how real a generated dataset looks, as numbers (``sdcomp realism``).
 
 Per-patch statistics of empty water (saturation, luminance, high-pass std, glint;
-:mod:`.patches`) against the issue-19 targets (PASS/FAIL, :mod:`.targets`), luminance power
+:mod:`.patches`) against the targets (PASS/FAIL, :mod:`.targets`), luminance power
 spectra (:mod:`.spectrum`), side-by-side crops of objects and empty water at one ground
 sampling distance (:mod:`.crops`), and, given real frames, a real-vs-synthetic patch
 classifier whose cross-validated accuracy is the realism number: 0.5 = indistinguishable

@@ -128,7 +128,7 @@ def analyse_set(frames: FrameSet, seed: int = 0, cnn: bool = False,
 
 def plot_histograms(path, generated: SetAnalysis, real: SetAnalysis | None = None) -> None:
     """PNG of the four per-patch metrics: generated vs real histograms (densities) with the
-    medians, the target bands and the issue's real medians marked."""
+    medians, the target bands and the reference real medians marked."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -157,7 +157,7 @@ def plot_histograms(path, generated: SetAnalysis, real: SetAnalysis | None = Non
             a, b = MEDIAN_TARGETS[m]
             ax.axvspan(a, b, color="tab:green", alpha=0.12, label="target for the median")
         ax.axvline(REAL_REFERENCE[m]["median"], color="k", ls="--", lw=1,
-                   label="issue's real median")
+                   label="reference real median")
         if m == "glint_fraction":
             ax.set_yscale("log")
         ax.set_xlabel(f"{m} ({UNITS[m]})" + ("" if m == "luminance" else

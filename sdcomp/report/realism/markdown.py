@@ -64,7 +64,7 @@ def render_markdown(r: dict) -> str:
     lines += ["", "Per-patch statistics of empty-water 64x64 patches: median [p10, p90] "
               "(definitions: docs/realism.md).", ""]
     head = "| metric | generated |" + (" real (measured) |" if rs else "")
-    head += " real (issue) | sdcomp (issue) | target for the median |"
+    head += " real (reference) | flat colours (reference) | target for the median |"
     lines += [head, "|" + "---|" * (head.count("|") - 1)]
     for m in METRICS:
         tgt = MEDIAN_TARGETS.get(m)

@@ -3,7 +3,7 @@
 Definitions (docs/realism.md), for an (H, W, 3) uint8 sRGB RGB image:
 
 - ``Y = 0.299 R + 0.587 G + 0.114 B`` (float32, 0..255): Rec. 601 luma of the encoded
-  8-bit values, as the issue's real frames were measured (the renderer's
+  8-bit values, as the reference real frames were measured (the renderer's
   :func:`sdcomp.util.colour.luminance` is Rec. 709 luminance of linear RGB, another
   quantity);
 - ``highpass = Y - cv2.blur(Y, (9, 9), borderType=cv2.BORDER_REFLECT_101)`` on the WHOLE

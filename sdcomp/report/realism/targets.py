@@ -10,14 +10,14 @@ from collections.abc import Mapping
 
 from .patches import METRICS
 
-#: real SeaDronesSee-like frames as measured by the issue's author (at matched GSD)
+#: real SeaDronesSee-like frames as measured for the reference (at matched GSD)
 REAL_REFERENCE: dict[str, dict[str, float]] = {
     "saturation": {"median": 0.18, "p10": 0.04, "p90": 0.32},
     "luminance": {"median": 121.0},
     "highpass_std": {"median": 6.2, "p10": 2.1, "p90": 26.2},
     "glint_fraction": {"median": 0.003, "p10": 0.0, "p90": 0.18},
 }
-#: sdcomp (brown, blue, green water) as measured by the issue's author
+#: sdcomp (brown, blue, green water) as measured for the reference
 SDCOMP_ISSUE: dict[str, dict[str, float]] = {
     "saturation": {"median": 0.41, "p10": 0.16, "p90": 0.65},
     "luminance": {"median": 90.0},
@@ -62,7 +62,7 @@ def evaluate_targets(generated: Mapping[str, Mapping[str, float]],
     out.append({"target": f"p90 highpass_std > {HIGHPASS_P90_MIN:g}", "metric": "highpass_std",
                 "value": v, "ok": v > HIGHPASS_P90_MIN if math.isfinite(v) else False})
     for m in METRICS:
-        ref_src = "measured real" if real is not None else "issue's real"
+        ref_src = "measured real" if real is not None else "reference real"
         ref = spread(real[m]) if real is not None else spread(REAL_REFERENCE[m])
         v = spread(generated[m])
         ok = None if not math.isfinite(ref) else (v >= ref if math.isfinite(v) else False)

@@ -1,5 +1,6 @@
-"""The README's worked examples: the torchvision training block runs (with fewer steps),
-the data.yaml shown is the one the generator writes."""
+"""The training guide's worked examples (docs/training.md): the torchvision training block
+runs (with fewer steps), the data.yaml shown is the one the generator writes, the
+CocoDetection and supervision blocks read a generated folder."""
 
 from __future__ import annotations
 
@@ -18,11 +19,11 @@ from sdcomp.scene.config import GeneratorConfig
 
 from .datasets import cli
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "training.md"
 
 
 def block_after(marker: str, lang: str) -> str:
-    text = README.read_text()
+    text = GUIDE.read_text()
     at = text.index(marker)
     m = re.compile(rf"```{lang}\n(.*?)```", re.S).search(text, at)
     assert m, f"no ```{lang} block after {marker!r}"
@@ -30,14 +31,14 @@ def block_after(marker: str, lang: str) -> str:
 
 
 def test_torchvision_example_trains(sprites_dir):
-    code = block_after("<!-- tested: tests/test_readme.py -->", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py -->", "python")
     for old, new in (("range(2000)", "range(3)"),
                      ('sprites_dir="sprites"', f'sprites_dir="{sprites_dir}"')):
         assert code.count(old) == 1, old
         code = code.replace(old, new)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        exec(compile(code, "README.md", "exec"), {"__name__": "readme_example"})
+        exec(compile(code, "docs/training.md", "exec"), {"__name__": "readme_example"})
     lines = out.getvalue().splitlines()
     assert len(lines) == 1 and lines[0].startswith("step 0: loss ")
     assert float(lines[0].split()[-1]) > 0
@@ -51,7 +52,7 @@ def test_readme_data_yaml_is_what_we_write():
 
 @pytest.fixture(scope="module")
 def rov(tmp_path_factory, sprites_dir) -> Path:
-    """A small "rov" folder as the README's snippets expect, with images without objects."""
+    """A small "rov" folder as the guide's snippets expect, with images without objects."""
     root = tmp_path_factory.mktemp("readme")
     rc, _, err = cli(["--n", "12", "--size", "160", "--count", "0-1", "--clutter", "0",
                       "--val-fraction", "0.5",
@@ -67,10 +68,10 @@ def test_coco_detection_example_trains_on_empty_images(rov, monkeypatch, one_tor
     coco = json.loads((rov / "rov/annotations/instances_train.json").read_text())
     assert any(not [a for a in coco["annotations"] if a["image_id"] == im["id"]]
                for im in coco["images"])
-    code = block_after("<!-- tested: tests/test_readme.py CocoDetection -->", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py CocoDetection -->", "python")
     monkeypatch.chdir(rov)
     scope: dict = {"__name__": "readme_example"}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/training.md", "exec"), scope)
     loss = scope["loss"].detach()
     assert torch.isfinite(loss) and float(loss) > 0
     assert all(t["boxes"].dtype == torch.float32 for t in scope["targets"])
@@ -80,14 +81,14 @@ def test_coco_detection_example_trains_on_empty_images(rov, monkeypatch, one_tor
     scope = {"__name__": "readme_example"}
     with pytest.raises(KeyError, match="boxes"):
         torch.manual_seed(0)
-        exec(compile(bare.replace("shuffle=True", "shuffle=False"), "README.md", "exec"),
+        exec(compile(bare.replace("shuffle=True", "shuffle=False"), "docs/training.md", "exec"),
              scope)
 
 
 def test_supervision_example(rov, monkeypatch):
-    code = block_after("**supervision** (tested)", "python")
+    code = block_after("<!-- tested: tests/test_training_guide.py supervision -->", "python")
     monkeypatch.chdir(rov)
     scope: dict = {"__name__": "readme_example"}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/training.md", "exec"), scope)
     n_val = len(list((rov / "rov/images/val").iterdir()))
     assert n_val and len(scope["val"]) == len(scope["val_coco"]) == n_val
