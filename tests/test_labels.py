@@ -141,6 +141,26 @@ def test_dataset_ignore_regions_agree_with_masks_and_counts(drawn):
         "objects_truncated"] == sum(a["truncated"] for r in records for a in r["annotations"])
 
 
+def test_resume_redraws_a_lost_ignore_mask(drawn, tmp_path, sprites_dir):
+    """An ignore mask deleted after the run is drawn again by --resume, the same bytes; the
+    other images are kept (not drawn again)."""
+    import shutil
+
+    out = tmp_path / "copy"
+    shutil.copytree(drawn, out)
+    lost = sorted((out / "masks").glob("*/*_ignore.png"))[0]
+    want = lost.read_bytes()
+    kept = {p: p.stat().st_mtime_ns for p in (out / "images").glob("*/*")}
+    lost.unlink()
+    rc, _, err = generate(BASE, out, sprites_dir, "--resume")
+    assert rc == 0, err
+    assert lost.read_bytes() == want
+    image = out / "images" / lost.parent.name / (lost.name.split("_")[0] + ".jpg")
+    changed = [p for p, t in kept.items() if p.stat().st_mtime_ns != t]
+    assert changed == [image], changed
+    check_intact(out)
+
+
 def test_cocoeval_ignores_detections_on_ignore_regions(drawn):
     """Ground truth against itself: AP 1.0; a detection on an ignore region, scored above
     every true one, is neither a true nor a false positive (AP stays 1.0, it is ignored)."""

@@ -124,7 +124,8 @@ def _never_begun(out: Path) -> bool:
 def resumable(config: GeneratorConfig, out: Path,
               shard: tuple[int, int] | None = None) -> set[int]:
     """The images of ``out`` a resumed run of ``config`` (and ``shard``) keeps: those with a
-    journal line and all their files. UserError when ``out`` was made with other options
+    journal line and all their files (the ignore mask too, for an image whose record names
+    one). UserError when ``out`` was made with other options
     (a larger ``n`` without a shard is allowed: the run grows) or another dataset format."""
     layout = DatasetLayout(out)
     if not layout.meta.exists() and _never_begun(out):
@@ -141,8 +142,11 @@ def resumable(config: GeneratorConfig, out: Path,
     if not layout.journal.exists():
         return set()
     indices = run_indices(config, shard)
-    return {i for i in read_journal(layout.journal) if i in indices
-            and all(p.exists() for p in image_files(config, layout, i))}
+    offsets = {i: off for i, off in read_journal(layout.journal).items() if i in indices
+               and all(p.exists() for p in image_files(config, layout, i))}
+    return {rec["index"] for rec in iter_records(layout.journal, offsets)
+            if not rec["image"].get("ignore_file")
+            or (layout.masks / rec["image"]["ignore_file"]).is_file()}
 
 
 def _check_same_run(config: GeneratorConfig, meta: dict, out: Path,
