@@ -93,12 +93,15 @@ def test_box_sizes_per_class(pair, cls):
 
 
 @pytest.mark.xfail(reason="measured here (200 frames, seed 0), p10/p50/p90 over "
-                          "SeaDronesSee's: swimmer 0.91/1.37/1.55, boat 1.60/1.48/2.59, "
+                          "SeaDronesSee's: swimmer 0.76/1.21/1.53, boat 1.76/1.63/2.76, "
                           "life_saving_appliances 0.79/2.05/4.49, buoy 1.37/2.86/1.40 "
                           "(jetski 0.87/0.93/1.13 passes above): each class is placed where "
                           "SeaDronesSee's boxes lie in the frame, but the visible masks of "
                           "swimmers and the near boats, appliances and buoys are still "
-                          "larger than the real boxes", strict=False)
+                          "larger than the real boxes; SeaDronesSee's boats are mostly "
+                          "small craft (median box 2-3 m) yet as bright as white hulls: a "
+                          "mix of kayaks and rowing boats brings the boat median to 1.18 "
+                          "but their bright share to 0.33 (real 0.48)", strict=False)
 @pytest.mark.parametrize("cls", ["swimmer", "boat", "life_saving_appliances", "buoy"])
 def test_box_sizes_per_class_not_yet(pair, cls):
     ratio, why = _size_ratios(pair)
