@@ -166,3 +166,70 @@ def test_each_corruption_is_found(clean, tmp_path, corrupt):
     problems, summary = lines[:-1], lines[-1]
     assert problems and summary.endswith(f"; {len(problems)} problems")
     assert any(where in line for line in problems), (where, problems)
+
+
+# --------------------------------------------------------------------------- video runs
+
+VIDEO = ["video", "--size", "128", "--frames", "6", "--sequences", "2", "--seed", "4",
+         "--count", "2-5", "--altitude", "6-12", "--workers", "1", "--quiet",
+         "--format", "coco,yolo"]
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory, sprites_dir) -> Path:
+    from sdcomp.cli import main as sdcomp_main
+
+    out = tmp_path_factory.mktemp("check") / "clips"
+    rc, _, err = cli([*VIDEO, "--out", str(out), "--sprites", str(sprites_dir)], sdcomp_main)
+    assert rc == 0, err
+    return out
+
+
+def test_clean_video_run_passes(clips):
+    rc, lines = _check(clips)
+    coco = json.loads((clips / "annotations" / "instances_video.json").read_text())
+    crowd = sum(a["iscrowd"] for a in coco["annotations"])
+    assert rc == 0 and len(lines) == 1, lines
+    assert lines[0] == (f"12 images: {len(coco['annotations']) - crowd} objects labelled, 0 "
+                        f"truncated, {crowd} ignored; 0 problems")
+
+
+def _drop_gt_row(root: Path) -> str:
+    gt = root / "sdcomp-0001" / "gt" / "gt.txt"
+    rows = gt.read_text().splitlines(keepends=True)
+    gt.write_text("".join(rows[1:]))
+    frame, track = rows[0].split(",")[:2]
+    return f"frame {frame}, id {track}"
+
+
+def _move_gt_box(root: Path) -> str:
+    gt = root / "sdcomp-0000" / "gt" / "gt.txt"
+    rows = gt.read_text().splitlines(keepends=True)
+    cells = rows[-1].split(",")
+    cells[2] = str(float(cells[2]) + 3)
+    rows[-1] = ",".join(cells)
+    gt.write_text("".join(rows))
+    return "is not the COCO bbox"
+
+
+def _erase_from_mask(root: Path) -> str:
+    from sdcomp.io.png import decode_png16, encode_png16
+
+    for mask in sorted((root / "sdcomp-0000" / "masks").glob("0*[0-9].png")):
+        m = decode_png16(mask.read_bytes())
+        if m.any():
+            m[m == m.max()] = 0
+            mask.write_bytes(encode_png16(m))
+            return f"sdcomp-0000/img1/{mask.stem}"
+    raise AssertionError("no object in sequence 0")
+
+
+@pytest.mark.parametrize("corrupt", [_drop_gt_row, _move_gt_box, _erase_from_mask],
+                         ids=["gt-row-missing", "gt-box-moved", "mask-erased"])
+def test_each_video_corruption_is_found(clips, tmp_path, corrupt):
+    root = tmp_path / "clips"
+    shutil.copytree(clips, root)
+    what = corrupt(root)
+    rc, lines = _check(root)
+    assert rc == 1 and any(what in line for line in lines[:-1]), lines
+    assert lines[-1].endswith(f"{len(lines) - 1} problems")

@@ -10,27 +10,33 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from ..errors import run_cli
-from ..report.check import check_dataset
+from ..errors import UserError, run_cli
+from ..report.check import check_folder
 from . import Parser, prog
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(
         prog=prog("check"),
-        description="Check a dataset written by sdcomp generate: image and mask sizes, "
-                    "boxes and areas against the masks, image ids against file names, "
-                    "ignore regions against the ignore masks, every object placed "
-                    "labelled, ignored or not visible, YOLO lines against COCO, splits "
-                    "disjoint. Prints one line per problem and a summary; exit status 1 "
-                    "when there is any problem.")
-    p.add_argument("folder", metavar="DIR", help="dataset folder (the generator's --out)")
+        description="Check a dataset written by sdcomp generate or sdcomp video: image "
+                    "and mask sizes, boxes and areas against the masks, image ids against "
+                    "file names, ignore regions against the ignore masks, every object "
+                    "placed labelled, ignored or not visible, YOLO lines against COCO, "
+                    "splits disjoint, MOTChallenge gt.txt against COCO-video. Prints one "
+                    "line per problem and a summary; exit status 1 when there is any "
+                    "problem.")
+    p.add_argument("folder", metavar="DIR", help="dataset folder (the --out of sdcomp "
+                   "generate or sdcomp video)")
+    p.add_argument("--workers", type=int, default=2, metavar="N",
+                   help="processes reading the images (default: %(default)s)")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    report = check_dataset(args.folder)
+    if args.workers < 1:
+        raise UserError(f"--workers {args.workers}: use 1 or more")
+    report = check_folder(args.folder, args.workers)
     for line in report.problems:
         print(line)
     print(report.summary())

@@ -1,7 +1,8 @@
-"""``sdcomp check``: every file of a generated still dataset against every other.
+"""``sdcomp check``: every file of a generated dataset against every other.
 
-:func:`check_dataset` reads a folder through :func:`~sdcomp.io.layout.load_dataset` and
-returns one line per problem found, and the counts of its summary:
+:func:`check_folder` checks a still dataset (:func:`check_dataset`) or a video run's folder
+(:func:`check_video`) and returns one line per problem found, and the counts of its
+summary. A still dataset, read through :func:`~sdcomp.io.layout.load_dataset`:
 
 - each image and mask exists, decodes, and has the image record's width and height;
 - an image's id is the number in its file name, and its file lies in its split's folder;
@@ -13,10 +14,17 @@ returns one line per problem found, and the counts of its summary:
 - YOLO labels (where the folder has them): one line per labelled object, its class and box
   those of the COCO annotation (to the 6 decimals written);
 - the splits are disjoint: no image id, file, or YOLO list line in two of them.
+
+A video run (``video.json``, :mod:`sdcomp.io.clip_layout`), from its COCO-video file: the
+same per frame (frame files, mask ids = the sequence's instance ids, boxes, areas, ignore
+regions and masks, objects accounted for, YOLO lines), and each sequence's ``gt/gt.txt``
+holds one flag-1 row per labelled object and one flag-0 row per ignore region of each frame,
+with the same ids and boxes.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,8 +32,12 @@ import cv2
 import numpy as np
 
 from ..annotate.rle import rle_to_mask
+from ..errors import UserError
+from ..io.clip_layout import ClipLayout
 from ..io.layout import Entry, load_dataset
+from ..io.mot import read_gt
 from ..io.png import decode_ignore_png, decode_png16
+from ..util.pool import imap_ordered
 
 BOX_TOLERANCE = 1.5e-6  # YOLO boxes are written with 6 decimals (normalised)
 
@@ -45,8 +57,37 @@ class Report:
                 f"truncated, {self.ignored} ignored; {len(self.problems)} problems")
 
 
-def check_dataset(folder: str | Path) -> Report:
-    """Check the dataset ``folder`` (see the module docstring)."""
+CHUNK = 32  #: images per task of a worker process
+
+
+def check_folder(folder: str | Path, workers: int = 2) -> Report:
+    """Check ``folder``: a video run's (it has ``video.json``) or a still dataset; the
+    images are read by ``workers`` processes (1: in this one)."""
+    if ClipLayout(Path(folder)).meta.is_file():
+        return check_video(folder, workers)
+    return check_dataset(folder, workers)
+
+
+def _chunks(items: list, size: int = CHUNK) -> list[list]:
+    return [items[i:i + size] for i in range(0, len(items), size)]
+
+
+def _per_image(func, tasks: list, workers: int) -> list[str]:
+    """The problems ``func(task)`` finds for each task (a chunk of images), in order, in
+    ``workers`` processes (in this one for 1 or a single task)."""
+    if workers <= 1 or len(tasks) <= 1:
+        return [line for t in tasks for line in func(t)]
+    return [line for found in imap_ordered(func, tasks, workers, what="chunk")
+            for line in found]
+
+
+def _check_entries(task: tuple[Path, list[Entry]]) -> list[str]:
+    root, entries = task
+    return [line for e in entries for line in _check_entry(root, e)]
+
+
+def check_dataset(folder: str | Path, workers: int = 2) -> Report:
+    """Check the dataset ``folder`` (see the module docstring) with ``workers`` processes."""
     ds = load_dataset(folder, "all")
     root = Path(folder)
     report = Report()
@@ -60,7 +101,8 @@ def check_dataset(folder: str | Path) -> Report:
         report.labelled += len(e.annotations)
         report.ignored += len(e.ignore)
         report.truncated += sum(bool(a.get("truncated")) for a in e.annotations)
-        report.problems += _check_entry(root, e)
+    report.problems += _per_image(_check_entries,
+                                  [(root, c) for c in _chunks(list(ds.entries))], workers)
     report.problems += _check_lists(root)
     return report
 
@@ -74,35 +116,46 @@ def _check_entry(root: Path, e: Entry) -> list[str]:
         out.append(f"{name}: image id {e.id} is not the number in its file name")
     if not name.startswith(f"{e.split}/"):
         out.append(f"{name}: not in its split's folder {e.split}/")
-    image = cv2.imread(str(root / "images" / name), cv2.IMREAD_UNCHANGED)
+    out += _check_frame(root / "images" / name, root / "masks", im, e.annotations, e.ignore)
+    label = root / "labels" / Path(name).with_suffix(".txt")
+    if (root / "labels").is_dir():
+        out += _check_yolo(name, label, e.annotations, (im.get("height"), im.get("width")))
+    return out
+
+
+def _check_frame(image_file: Path, masks: Path, im: dict, anns: list[dict],
+                 ignore: list[dict]) -> list[str]:
+    """The problems of one image's files: the image and its mask (``mask_file`` under
+    ``masks``) exist at the record's size, the mask against ``anns``, the ignore mask
+    against ``ignore``, the meta's count of objects placed."""
+    name = im["file_name"]
+    image = cv2.imread(str(image_file), cv2.IMREAD_UNCHANGED)
     size = (im.get("height"), im.get("width"))
     if image is None:
-        return out + [f"{name}: image missing or unreadable"]
+        return [f"{name}: image missing or unreadable"]
+    out = []
     if image.shape[:2] != size:
         out.append(f"{name}: image is {image.shape[1]}x{image.shape[0]}, its record says "
                    f"{size[1]}x{size[0]}")
     try:
-        mask = decode_png16((root / "masks" / im["mask_file"]).read_bytes())
+        mask = decode_png16((masks / im["mask_file"]).read_bytes())
     except (OSError, ValueError, KeyError):
         return out + [f"{name}: mask missing or unreadable"]
     if mask.shape != size:
         return out + [f"{name}: mask is {mask.shape[1]}x{mask.shape[0]}, the image "
                       f"{size[1]}x{size[0]}"]
-    out += _check_masks(name, mask, e.annotations)
-    out += _check_ignore(root, name, im, mask, e.ignore)
+    out += _check_masks(name, mask, anns)
+    out += _check_ignore(masks, name, im, mask, ignore)
     meta = im.get("meta", {})
     if "objects_placed" in meta:
-        accounted = len(e.annotations) + sum(int(meta.get(f"objects_{k}", 0))
-                                             for k in ("ignored", "dropped", "skipped"))
+        accounted = len(anns) + sum(int(meta.get(f"objects_{k}", 0))
+                                    for k in ("ignored", "dropped", "skipped"))
         if accounted != meta["objects_placed"] or meta.get("objects_ignored", 0) != len(
-                e.ignore):
+                ignore):
             out.append(f"{name}: {meta['objects_placed']} objects placed, but "
-                       f"{len(e.annotations)} labelled, {len(e.ignore)} ignore regions, "
+                       f"{len(anns)} labelled, {len(ignore)} ignore regions, "
                        f"meta says {meta.get('objects_ignored', 0)} ignored, "
                        f"{meta.get('objects_dropped', 0)} dropped")
-    label = root / "labels" / Path(name).with_suffix(".txt")
-    if (root / "labels").is_dir():
-        out += _check_yolo(name, label, e.annotations, size)
     return out
 
 
@@ -126,14 +179,15 @@ def _check_masks(name: str, mask: np.ndarray, anns: list[dict]) -> list[str]:
     return out
 
 
-def _check_ignore(root: Path, name: str, im: dict, mask: np.ndarray, ignore: list[dict]
+def _check_ignore(masks: Path, name: str, im: dict, mask: np.ndarray, ignore: list[dict]
                   ) -> list[str]:
-    """The ignore regions cover exactly the ignore mask, apart from the labels."""
+    """The ignore regions cover exactly the ignore mask (``ignore_file`` under ``masks``),
+    apart from the labels."""
     file = im.get("ignore_file")
     if not isinstance(file, str):
         return [f"{name}: {len(ignore)} ignore regions but no ignore mask"] if ignore else []
     try:
-        region = decode_ignore_png((root / "masks" / file).read_bytes())
+        region = decode_ignore_png((masks / file).read_bytes())
     except (OSError, ValueError):
         return [f"{name}: ignore mask {file} missing or unreadable"]
     if region.shape != mask.shape:
@@ -179,3 +233,74 @@ def _check_lists(root: Path) -> list[str]:
              for s in ("train", "val") if (root / f"{s}.txt").is_file()}
     both = lists.get("train", set()) & lists.get("val", set())
     return [f"{p}: in both train.txt and val.txt" for p in sorted(both)]
+
+
+def _check_frames(task: tuple[Path, list[tuple[dict, list[dict], list[dict]]]]
+                  ) -> list[str]:
+    """The problems of video frames: (image record, labelled, ignore regions) each."""
+    root, frames = task
+    out = []
+    for im, anns, ignore in frames:
+        out += _check_frame(root / im["file_name"], root, im, anns, ignore)
+        seq, _, frame = im["file_name"].partition("/img1/")
+        if (root / seq / "labels").is_dir():
+            out += _check_yolo(im["file_name"],
+                               root / seq / "labels" / Path(frame).with_suffix(".txt"), anns,
+                               (im.get("height"), im.get("width")))
+    return out
+
+
+def check_video(folder: str | Path, workers: int = 2) -> Report:
+    """Check the video run's folder ``folder`` (see the module docstring) with ``workers``
+    processes."""
+    layout = ClipLayout(Path(folder))
+    try:
+        coco = json.loads(layout.coco.read_text())
+        images, annotations = coco["images"], coco["annotations"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise UserError(f"{layout.coco}: missing or not a COCO-video file; finish the run "
+                        f"with `sdcomp video ... --resume`") from None
+    labelled: dict[int, list[dict]] = {}
+    crowd: dict[int, list[dict]] = {}
+    for a in annotations:
+        (crowd if a.get("iscrowd") else labelled).setdefault(a["image_id"], []).append(a)
+    report = Report()
+    frames: dict[str, dict[int, list[dict]]] = {}
+    work = []
+    for im in images:
+        anns, ignore = labelled.get(im["id"], []), crowd.get(im["id"], [])
+        report.images += 1
+        report.labelled += len(anns)
+        report.ignored += len(ignore)
+        report.truncated += sum(bool(a.get("truncated")) for a in anns)
+        work.append((im, anns, ignore))
+        seq, _, frame = im["file_name"].partition("/img1/")
+        frames.setdefault(seq, {})[int(Path(frame).stem)] = anns + ignore
+    report.problems += _per_image(_check_frames, [(layout.root, c) for c in _chunks(work)],
+                                  workers)
+    for seq, per_frame in frames.items():
+        report.problems += _check_gt(layout.root / seq / "gt" / "gt.txt", per_frame)
+    return report
+
+
+def _check_gt(path: Path, per_frame: dict[int, list[dict]]) -> list[str]:
+    """``gt.txt`` has a row per object of each frame (``per_frame``: frame number from 1 ->
+    its COCO annotations, ignore regions with iscrowd 1): id, box and flag (1 labelled, 0
+    ignore region) as in COCO."""
+    try:
+        rows = read_gt(path)
+    except (OSError, ValueError):
+        return [f"{path}: missing or unreadable"]
+    got = {(int(r[0]), int(r[1]), int(r[6])): r[2:6] for r in rows}
+    want = {(k, int(a["instance_id"]), 0 if a.get("iscrowd") else 1): a["bbox"]
+            for k, anns in per_frame.items() for a in anns}
+    out = [f"{path}: frame {k}, id {i}: {'ignore region' if f == 0 else 'object'} in COCO, "
+           f"no gt row" for k, i, f in sorted(want.keys() - got.keys())]
+    out += [f"{path}: frame {k}, id {i}: a gt row not in COCO"
+            for k, i, _ in sorted(got.keys() - want.keys())]
+    for key in sorted(want.keys() & got.keys()):
+        x, y, w, h = (float(v) for v in want[key])
+        if np.abs(np.asarray(got[key], float) - [x + 1, y + 1, w, h]).max() > 0.01:
+            out.append(f"{path}: frame {key[0]}, id {key[1]}: box {list(got[key])} is not "
+                       f"the COCO bbox {want[key]} (+1)")
+    return out
