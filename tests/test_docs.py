@@ -48,6 +48,8 @@ NOT_RUN: list[tuple[str, str]] = [
     (r"bench sim2real", "a synopsis with your files; tests/test_bench_sim2real.py runs it"),
     (r"sdcomp fit my_site", "needs your footage; tests/test_fit.py fits generated stand-ins "
                             "with the same command"),
+    (r"--config fitted\.toml", "reads what the fit line above writes; tests/test_fit.py "
+                               "reads a fitted config through generate --config"),
     (r"\$SLURM|shards/\*", "a job-array script; tests/test_shards.py runs shards and merge"),
 ]
 #: Python blocks not run here: (regular expression searched in the block, why)
