@@ -52,6 +52,13 @@ class Report:
     truncated: int = 0
     ignored: int = 0
 
+    def count(self, anns: list[dict], ignore: list[dict]) -> None:
+        """Count one image with labelled objects ``anns`` and ignore regions ``ignore``."""
+        self.images += 1
+        self.labelled += len(anns)
+        self.ignored += len(ignore)
+        self.truncated += sum(bool(a.get("truncated")) for a in anns)
+
     def summary(self) -> str:
         return (f"{self.images} images: {self.labelled} objects labelled, {self.truncated} "
                 f"truncated, {self.ignored} ignored; {len(self.problems)} problems")
@@ -93,14 +100,11 @@ def check_dataset(folder: str | Path, workers: int = 2) -> Report:
     report = Report()
     seen: dict[int, str] = {}
     for e in ds.entries:
-        report.images += 1
+        report.count(e.annotations, e.ignore)
         name = e.image["file_name"]
         if e.id in seen:
             report.problems.append(f"{name}: image id {e.id} is also in {seen[e.id]}")
         seen[e.id] = name
-        report.labelled += len(e.annotations)
-        report.ignored += len(e.ignore)
-        report.truncated += sum(bool(a.get("truncated")) for a in e.annotations)
     report.problems += _per_image(_check_entries,
                                   [(root, c) for c in _chunks(list(ds.entries))], workers)
     report.problems += _check_lists(root)
@@ -269,10 +273,7 @@ def check_video(folder: str | Path, workers: int = 2) -> Report:
     work = []
     for im in images:
         anns, ignore = labelled.get(im["id"], []), crowd.get(im["id"], [])
-        report.images += 1
-        report.labelled += len(anns)
-        report.ignored += len(ignore)
-        report.truncated += sum(bool(a.get("truncated")) for a in anns)
+        report.count(anns, ignore)
         work.append((im, anns, ignore))
         seq, _, frame = im["file_name"].partition("/img1/")
         frames.setdefault(seq, {})[int(Path(frame).stem)] = anns + ignore
