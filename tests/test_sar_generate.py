@@ -21,7 +21,6 @@ from sdcomp.cli.atlas import main as atlas_main
 from sdcomp.cli.generate import build_parser, config_from_args
 from sdcomp.cli.mesh import main as mesh_main
 from sdcomp.pipeline import Generator
-from sdcomp.scene.config import GeneratorConfig
 
 from .datasets import cli, files, generate
 
@@ -52,9 +51,7 @@ def test_dataset_of_a_kind_and_a_variant(dataset, sprites_dir):
     assert read_index(sprites_dir / "swimmer-03.json")["size_px"] == sprite_size(
         sar.build("swimmer", 3), KIND_ATLAS["swimmer"].size)  # a treading swimmer: 192
     # only what the run uses is loaded (the shared atlas folder holds other tests' too)
-    config = GeneratorConfig(objects=["life_saving_appliances",
-                                      {"mesh": "swimmer-03", "category": "person"}],
-                             clutter=2, clutter_kinds=["buoy", "log"])
+    config = config_from_args(build_parser().parse_args(BASE))  # the dataset's own config
     loaded = set(Generator(config, sprites_dir).compositor.assets.sprites)
     assert {k for k in loaded if k.startswith("swimmer")} == {"swimmer-03"}
     assert {k for k in loaded if not k.startswith("clutter")} == {
