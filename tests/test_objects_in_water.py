@@ -158,9 +158,29 @@ def test_scattered_light_veils_the_image_and_keeps_its_brightness():
     assert murky[inner].std() < 0.25 * clear[inner].std()
     assert murky[inner].mean() == pytest.approx(clear[inner].mean(), rel=0.02)
     limb = np.zeros((n, n), np.float32)
-    limb[:, 30:34] = 1.0  # 4 px (20 cm) wide
+    limb[:, 31:33] = 1.0  # 2 px (10 cm) wide
     thin, _ = submerge(flat, flat, limb, depth, col, pitch_m=0.05, blur_per_metre=0.0)
     assert thin[n // 2, 31, 1] < 0.6 * out[n // 2, n // 2, 1]
+
+
+def test_a_deep_limbs_shadow_fills_in_at_its_own_depth():
+    """The water's light comes back into a submerged part's shadow by small-angle scattering
+    spread over its own depth, not the whole body's: a thin dark limb hanging a metre under
+    a broad body just awash leaves next to no shadow, while the body keeps its own."""
+    n = 160
+    alpha = np.zeros((n, n), np.float32)
+    depth = np.full((n, n), 0.02, np.float32)
+    alpha[10:60, 40:120] = 1.0  # a broad body 2 cm down (0.5 x 0.8 m at 1 cm a pixel)
+    alpha[60:150, 79:81] = 1.0  # a 2 cm limb hanging from it down to a metre
+    depth[60:150] = np.linspace(0.1, 1.0, 90, dtype=np.float32)[:, None]
+    dark = np.zeros((n, n, 3), np.float32)
+    col = _column(0.5, k_img=4.0)
+    out, _ = submerge(dark, dark, alpha, depth, col, pitch_m=0.01, blur_per_metre=0.0)
+    water = col.deep + col.reflection  # open water: the whole column's light
+    shortfall = (water - out)[..., 1] / col.deep[1]  # of the light from under the surface
+    assert shortfall[35, 80] > 0.9  # the body: a shadow
+    assert shortfall[145, 80] < 0.1  # the limb a metre down: next to none
+    assert shortfall[70, 80] > 2 * shortfall[145, 80]  # deeper, fainter
 
 
 def test_submerged_parts_blur_with_depth():
@@ -205,6 +225,17 @@ def test_contact_foam_rings_the_waterline():
     assert contact_foam(alpha, np.full((n, n), 0.3, np.float32), 0.01, 0.4, (5,)) is None
     assert contact_foam(alpha, depth, 0.5, 0.4, (5,)) is None
     assert ring_strength(0.0) < ring_strength(8.0) <= 0.5
+
+
+def test_contact_foam_needs_a_body_that_stands_against_the_waves():
+    """A head above the water rides the short waves (no froth); a hull a couple of metres
+    across makes the full ring; in between, more with size."""
+    from sdcomp.render.layers import RING_FULL_M, RING_SMALL_M, ring_share
+
+    assert ring_share(0.25) == 0.0 == ring_share(RING_SMALL_M)
+    assert ring_share(RING_FULL_M) == 1.0 == ring_share(6.0)
+    sizes = np.linspace(RING_SMALL_M, RING_FULL_M, 7)
+    assert np.all(np.diff([ring_share(float(m)) for m in sizes]) > 0)
 
 
 # --------------------------------------------------------------------------- frames

@@ -48,11 +48,13 @@ def test_swimmers_are_not_bright_bodies_and_keep_their_shape(stats):
 
 
 @pytest.mark.xfail(reason="measured here (200 images, fov 22.9, 416 px): swimmer box "
-                          "contrast -0.11 std (real -1.88, bound -1.0) and dark share 0.14 "
+                          "contrast -0.38 std (real -1.88, bound -1.0) and dark share 0.15 "
                           "(real 0.23, bound 0.15); upright swimmers in dark suits alone "
-                          "reach -1.4 and 0.39, but the swimmers on their backs, crawling "
-                          "and in breaststroke spread thin limbs at the surface: their boxes "
-                          "are a fifth body, four fifths water", strict=False)
+                          "reach -1.0 to -2.1 and 0.17-0.30, but those in bright clothes, "
+                          "vests or swimwear are brighter than green water, and the "
+                          "swimmers on their backs and swimming spread thin limbs at the "
+                          "surface: their boxes are a fifth body, four fifths water",
+                   strict=False)
 def test_swimmers_are_as_dark_against_their_water_as_real_ones(stats):
     s = stats["swimmer"]
     assert s["contrast"]["median"] <= -1.0, s

@@ -2,7 +2,9 @@
 
 Small waves break against a floating hull and the water it rocks in froths: from the air a
 floating object is ringed by a thin, broken band of foam a few tens of centimetres wide, whiter
-in wind. The band is drawn on the water (it is not the object: it is never annotated) before
+in wind. Only a body that stands against the short waves makes it (a hull; not a swimmer's
+head or a small buoy, which ride them: :func:`~sdcomp.render.layers.ring_share`). The band
+is drawn on the water (it is not the object: it is never annotated) before
 the objects and their shadows, so the objects' coverage hides it (at a hull's edge pixels the
 foam fills the water's part only), shadows darken it, and the masks are unchanged.
 """

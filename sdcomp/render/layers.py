@@ -36,6 +36,10 @@ from .wake import place_wake, wake_cover
 from .water.optics import N_WATER
 
 RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
+#: metres across (square root of the area above the water) below which a floating body
+#: rides the short waves and makes no contact foam, and from which it makes all of it
+RING_SMALL_M = 0.3
+RING_FULL_M = 1.5
 
 
 @dataclass
@@ -297,7 +301,9 @@ def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
               ) -> FoamRing | None:
     """The contact foam around placement ``i``'s waterline (:func:`contact_foam`), lit
     like the water's surface, placed in the frame; None when there is none."""
-    ring = contact_foam(alpha, depth, pitch_m, ring_strength(scene.water.wind),
+    dry_m = math.sqrt(float(np.count_nonzero((alpha >= 0.5) & (depth < 0.0)))) * pitch_m
+    ring = contact_foam(alpha, depth, pitch_m,
+                        ring_strength(scene.water.wind) * ring_share(dry_m),
                         (scene.water.seed, i))
     if ring is None:
         return None
@@ -307,6 +313,15 @@ def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
         return None
     affine, roi = placed
     return FoamRing(view.depth, cover, affine, roi, foam_colour(lit, column))
+
+
+def ring_share(dry_m: float) -> float:
+    """The share of the full contact foam (:func:`ring_strength`) that an object whose part
+    above the water is ``dry_m`` metres across (square root of its area) makes: waves break
+    into froth against a body that stands in their way, not against one so small that it
+    rides them (a swimmer's head, a small buoy): none below :data:`RING_SMALL_M`, all from
+    :data:`RING_FULL_M`."""
+    return float(np.clip((dry_m - RING_SMALL_M) / (RING_FULL_M - RING_SMALL_M), 0.0, 1.0))
 
 
 def foam_colour(lit: Lighting, column: WaterColumn) -> tuple[float, ...]:

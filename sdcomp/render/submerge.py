@@ -136,6 +136,48 @@ def waterline_level(shape: tuple[int, int], pitch_m: float, amplitude: float,
     return out
 
 
+def _veil_levels(max_sigma: float) -> list[float]:
+    """Blur levels (Gaussian sigma, pixels) that cover spreads 0..``max_sigma``: 0, then
+    powers of two from 1 up to the first at or above ``max_sigma``."""
+    grid = [0.0]
+    s = 1.0
+    while grid[-1] < max_sigma:
+        grid.append(s)
+        s *= 2.0
+    return grid
+
+
+def _hat(x: np.ndarray, grid: list[float], k: int) -> np.ndarray:
+    """(n, n) float32 weight of level ``k`` of ``grid`` at spreads ``x``: the piecewise-linear
+    hat on the grid (the weights of all levels sum to 1; beyond the last level, its)."""
+    one = np.zeros(len(grid))
+    one[k] = 1.0
+    return np.interp(x, grid, one).astype(np.float32)
+
+
+def _wide_blur(img: np.ndarray, sigma: float) -> np.ndarray:
+    """``img`` (n, m[, c]) float32 blurred by a Gaussian of ``sigma`` pixels, zero outside.
+    A wide blur runs on an image reduced by a power of two (area mean), so it costs about
+    what a 4-pixel one does, and is brought back by bilinear interpolation."""
+    if sigma < 0.5:
+        return img.copy()
+    h, w = img.shape[:2]
+    f = 1
+    while sigma / f > 4.0 and min(h, w) >= 16 * f:
+        f *= 2
+    if f == 1:
+        return cv2.GaussianBlur(img, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
+    ph, pw = -(-h // f) * f, -(-w // f) * f
+    pad = np.zeros((ph, pw) + img.shape[2:], np.float32)
+    pad[:h, :w] = img
+    small = cv2.resize(pad, (pw // f, ph // f), interpolation=cv2.INTER_AREA)
+    # the area mean already spread each pixel over f pixels (sigma about f / sqrt(12))
+    rest = math.sqrt(max(sigma * sigma - f * f / 12.0, 0.25)) / f
+    small = cv2.GaussianBlur(small, (0, 0), rest, borderType=cv2.BORDER_CONSTANT)
+    big = cv2.resize(small, (pw, ph), interpolation=cv2.INTER_LINEAR)
+    return big[:h, :w]
+
+
 def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.ndarray,
              column: WaterColumn, pitch_m: float, blur_per_metre: float
              ) -> tuple[np.ndarray, np.ndarray]:
@@ -148,9 +190,11 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     submerged parts are blurred by ``blur_per_metre`` metres (Gaussian sigma) per metre of
     depth (one blur, for 1.5 times the submerged part's mean depth, mixed in with depth).
     The light scattered on its way up (``exp(-k_obj d) - exp(-k_img d)``) is blurred by
-    :data:`VEIL_PER_METRE` metres per metre of the mean depth, and the water's light that
-    the object blocks beyond its image (``exp(-k_col d) - exp(-k_img d)`` of ``deep``) comes
-    back where the blurred coverage leaves room. The weight
+    :data:`VEIL_PER_METRE` metres per metre of each pixel's own depth (a few blur levels,
+    mixed per pixel), and the water's light that the object blocks beyond its image
+    (``exp(-k_col d) - exp(-k_img d)`` of ``deep``) comes back where the coverage blurred
+    at the pixel's depth leaves room: a limb hanging a metre down fills in, the broad body
+    just awash above it keeps its shadow. The weight
     (:mod:`sdcomp.annotate`) is ``alpha`` times the luminance of the image's transmittance
     ``exp(-k_img d)``: the fraction of the pixel's light that is the object's image."""
     eps = max(pitch_m, 0.01)
@@ -163,23 +207,31 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     wet = d[under > 0.5]
     mean_depth = float(wet.mean()) if wet.size else 0.0
     a = alpha[..., None]
-    veil_sigma = VEIL_PER_METRE * mean_depth / pitch_m
-    if veil_sigma >= 0.5:
-        # the scattered light spread around: what lands outside the object's footprint
-        # brightens the water there by a fraction too small to draw; a thin limb keeps
-        # little of it, a broad hull most
-        scattered = below * (np.exp(d[..., None] * -column.k_obj) - t_img)
-        veil = cv2.GaussianBlur(scattered * a, (0, 0), veil_sigma, borderType=cv2.BORDER_CONSTANT)
-        # the water behind the object, seen past it by the same small-angle scattering: the
-        # object's shadow in the water's light is blurred too, a thin limb's filled in
-        around = 1.0 - cv2.GaussianBlur(alpha, (0, 0), veil_sigma,
-                                        borderType=cv2.BORDER_CONSTANT)[..., None]
-        fill = np.maximum(t_col - t_img, 0.0) * column.deep * np.clip(around, 0.0, 1.0)
-        seen = below * t_img + (veil + fill) / np.maximum(a, 1e-4)
-    else:  # a veil under half a pixel: the scattered light lands where the image does
-        seen = below * np.exp(d[..., None] * -column.k_obj)
+    # the scattered light and the water's light past the object spread by
+    # VEIL_PER_METRE per metre of each pixel's own depth: a few blur levels, each pixel
+    # mixed from the two levels around its spread (hat weights in the level's sigma)
+    grid = _veil_levels(VEIL_PER_METRE * float(d.max()) / pitch_m)
+    spread = d * np.float32(VEIL_PER_METRE / pitch_m)
+    scattered = below * (np.exp(d[..., None] * -column.k_obj) - t_img) * a
+    veil = np.zeros_like(scattered)
+    covered = np.zeros_like(alpha)
+    for k, sigma in enumerate(grid):
+        w = _hat(spread, grid, k)
+        if not w.any():
+            continue
+        # what a pixel scatters lands around it (spread at the source's depth); what it
+        # receives of the water past the object depends on the cover around it (at the
+        # receiving pixel's depth)
+        veil += _wide_blur(scattered * w[..., None], sigma)
+        covered += w * _wide_blur(alpha, sigma)
+    # the water behind the object, seen past it by the same small-angle scattering: the
+    # object's shadow in the water's light is blurred too, a thin limb's filled in
+    # (the water's light is radiance above the surface already: not transmitted again)
+    around = np.clip(1.0 - covered, 0.0, 1.0)[..., None]
+    seen = below * t_img + veil / np.maximum(a, 1e-4)
     seen *= np.float32(column.transmission)
     seen += (1.0 - t_col) * column.deep + column.reflection
+    seen += np.maximum(t_col - t_img, 0.0) * column.deep * around
     sigma = blur_per_metre * 1.5 * mean_depth / pitch_m
     if sigma >= 0.5:
         # premultiplied blur, so the transparent surround does not darken the edge

@@ -38,19 +38,21 @@ POSES = ("tread", "wave", "crawl", "breast", "back", "distress")
 SUB_TYPES = POSES
 #: the pose of variant ``v`` is ``POSE_CYCLE[v % len(POSE_CYCLE)]``: weighted as people in
 #: the water are seen in search-and-rescue footage, mostly upright and still (waiting to be
-#: picked up: treading water 40 %, waving 10 %, in distress 5 %), some floating on the back
-#: (15 %), the rest swimming (crawl 15 %, breaststroke 15 %)
+#: picked up: treading water 50 %, waving 10 %, in distress 5 %), some floating on the back
+#: (15 %), the rest swimming (crawl 10 %, breaststroke 10 %)
 POSE_CYCLE = ("tread", "back", "crawl", "tread", "wave", "breast", "tread", "distress",
-              "tread", "crawl", "back", "tread", "breast", "wave", "tread", "back", "crawl",
-              "tread", "breast", "tread")
+              "tread", "tread", "back", "tread", "breast", "wave", "tread", "back", "crawl",
+              "tread", "tread", "tread")
 #: the poses that swim (under way); the others drift
 SWIMMING = ("crawl", "breast")
 OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
-#: outfits as drawn: dark full wetsuits two in three (open-water swimmers, surfers, divers
-#: and the volunteers SAR exercises put in the water), then swimwear, a person overboard in
-#: clothes, a shorty, one in nine each
-OUTFIT_DRAW = ("wetsuit", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "swimwear",
-               "clothes", "shorty")
+#: the outfit of variant ``v`` is ``OUTFIT_CYCLE[v % len(OUTFIT_CYCLE)]`` (a cycle, like
+#: the poses, so the twenty variants hold the mix exactly): dark full wetsuits seven in ten
+#: (open-water swimmers, surfers, divers and the volunteers SAR exercises put in the water:
+#: search-and-rescue footage shows dark heads and black suits most), then a shorty,
+#: swimwear and a person overboard in clothes, one in ten each
+OUTFIT_CYCLE = ("wetsuit", "wetsuit", "shorty", "wetsuit", "clothes", "wetsuit", "wetsuit",
+                "swimwear", "wetsuit", "wetsuit")
 #: hair as drawn: wet hair mostly, a swim cap on one in eight
 HAIR = ("short", "long", "bald", "cap")
 HAIR_DRAW = ("short", "short", "short", "long", "long", "long", "bald", "cap")
@@ -92,8 +94,9 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
     feet_pointed = [_dir(rng, (0.2, 0.1, -1), 10), _dir(rng, (0.2, -0.1, -1), 10)]
     p: dict = {"name": name, "head_pitch": 0.0, "head_yaw": 0.0, "roll": 0.0, "flip": False}
     if name in ("tread", "wave"):
-        # upper arms down and out, forearms sculling forward 0.2-0.4 m under the surface
-        arms = _sym(rng, (0.30, 0.50, -0.81), (0.70, 0.35, -0.62))
+        # upper arms out to the sides and down, forearms sculling sideways just under the
+        # surface: the hands sweep 0.2-0.3 m down, half a metre out from the shoulders
+        arms = _sym(rng, (0.20, 0.70, -0.68), (0.45, 0.80, -0.35))
         legs = [[_dir(rng, (0.55, 0.25, -0.8)), _dir(rng, (-0.3, 0.15, -0.95))],
                 [_dir(rng, (0.15, -0.25, -0.95)), _dir(rng, (-0.45, -0.1, -0.88))]]
         if name == "wave":
@@ -168,11 +171,11 @@ def _wet(rgb) -> tuple[int, int, int]:
     return r, g, b
 
 
-def _outfit(rng: np.random.Generator, pose: str) -> dict:
-    """Colours (sRGB lists) of every part, hair and vest, all wet; JSON-able."""
+def _outfit(rng: np.random.Generator, pose: str, kind: str) -> dict:
+    """Colours (sRGB lists) of every part, hair and vest of an outfit of ``kind``
+    (:data:`OUTFITS`), all wet; JSON-able."""
     tone = int(rng.integers(len(palette.SKIN_MONK)))
     skin = _wet(jitter(palette.skin(tone), rng, 0.04))
-    kind = pick(rng, OUTFIT_DRAW)
     c = dict.fromkeys(("chest", "hips", "upper_arm", "forearm", "hand", "thigh", "shin",
                        "foot", "neck"), skin)
     if kind == "swimwear":
@@ -231,7 +234,7 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
                                                0.170, 0.215)), 3),
             "girth": round(float(rng.uniform(0.9, 1.15)), 3), "female": female}
     return {"kind": "swimmer", "sub_type": pose, "body": body, "pose": _pose(pose, rng),
-            **_outfit(rng, pose)}
+            **_outfit(rng, pose, OUTFIT_CYCLE[variant % len(OUTFIT_CYCLE)])}
 
 
 def _to_pose(p: dict) -> Pose:
