@@ -48,13 +48,15 @@ def test_swimmers_are_not_bright_bodies_and_keep_their_shape(stats):
 
 
 @pytest.mark.xfail(reason="measured here (200 images, fov 22.9, 416 px): swimmer box "
-                          "contrast -0.38 std (real -1.88, bound -1.0) and dark share 0.15 "
+                          "contrast -0.37 std (real -1.88, bound -1.0) and dark share 0.11 "
                           "(real 0.23, bound 0.15); upright swimmers in dark suits alone "
                           "reach -1.0 to -2.1 and 0.17-0.30, but those in bright clothes, "
-                          "vests or swimwear are brighter than green water, and the "
-                          "swimmers on their backs and swimming spread thin limbs at the "
-                          "surface: their boxes are a fifth body, four fifths water",
-                   strict=False)
+                          "vests or swimwear are brighter than green water, the swimmers "
+                          "on their backs and swimming spread thin limbs at the surface "
+                          "(their boxes are a fifth body, four fifths water), and at the "
+                          "preset's SeaDronesSee box sizes (median 24 px here against 37 "
+                          "in the real frames measured) a box's edge pixels mix with the "
+                          "water", strict=False)
 def test_swimmers_are_as_dark_against_their_water_as_real_ones(stats):
     s = stats["swimmer"]
     assert s["contrast"]["median"] <= -1.0, s

@@ -130,8 +130,50 @@ def test_weights_are_checked_and_kept_in_config_files():
                                       {"mesh": "buoy", "category": "buoy"}]
     assert GeneratorConfig.from_mapping({"objects": c.to_dict()["objects"]}) == c
     with pytest.raises(UserError,
-                       match="unknown key 'colour'; use mesh, category, weight and frame"):
+                       match="unknown key 'colour'; use mesh, category, weight, frame and size"):
         GeneratorConfig(objects=[{"mesh": "boat", "colour": "red"}])
+
+
+def test_box_sizes_are_checked_and_kept_in_config_files():
+    for bad in ([0.01], [0.02, 0.01], [0.0, 0.1], [0.1, 1.0], "x", [0.01, "a"], 0.02):
+        with pytest.raises(SettingError, match="size .* must be at least two box sizes"):
+            ObjectSpec("boat", size=bad)
+    c = GeneratorConfig(objects=[{"mesh": "boat", "frame": [0, 0, 1, 1],
+                                  "size": [0.01, 0.02, 0.05]}])
+    assert c.to_dict()["objects"][0]["size"] == [0.01, 0.02, 0.05]
+    assert GeneratorConfig.from_mapping(c.to_dict()) == c
+
+
+def test_objects_with_box_sizes_are_placed_where_they_show_them():
+    """In oblique views an object with box-size quantiles stands on the row where its box
+    shows a size drawn from them: two narrow size bands give two distances, each within
+    the slack of what the band asks; a view straight down that cannot show a band draws
+    another object in its place (here none: the one object cannot)."""
+    from sdcomp.scene.objects import visible_size
+    from sdcomp.scene.sample import SIZE_SLACK
+
+    def distances(size, pitch):
+        c = GeneratorConfig(objects=[{"mesh": "boat-02", "frame": [0, 0, 1, 1],
+                                      "size": size}], count="3", altitude=40, pitch=pitch,
+                            width=1920, height=1080, clutter=0)
+        model = c.camera_model()
+        across, top = visible_size("boat-02")
+        out = []
+        for i in range(30):
+            for p in sample_scene(c, i).placements:
+                d = float(np.sqrt(p.x ** 2 + p.y ** 2 + 40.0 ** 2))
+                sin_e = 40.0 / d
+                out.append(model.fx / d * np.sqrt(across * (across * sin_e + top * np.sqrt(
+                    1 - sin_e ** 2))) / model.fx)
+        return np.array(out)
+
+    small = distances([0.040, 0.048], 30)  # a sailboat from 40 m: 0.034-0.25 of fx
+    large = distances([0.130, 0.156], 30)
+    assert len(small) > 60 and len(large) > 60
+    assert np.all((small > 0.040 / SIZE_SLACK) & (small < 0.048 * SIZE_SLACK))
+    assert np.all((large > 0.130 / SIZE_SLACK) & (large < 0.156 * SIZE_SLACK))
+    # straight down from 40 m it shows one size, far from 0.04 of fx
+    assert len(distances([0.040, 0.048], 90)) == 0
 
 
 def test_seadronessee_preset_has_its_categories_and_distributions():

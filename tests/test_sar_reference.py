@@ -9,8 +9,8 @@ to keep the test short; the reference is its 3840 x 2160 frames, the ones with f
 metadata. How close (200 frames): altitudes and pitches within a few percent above the pitch
 floor; box sizes per class within 1.25 times SeaDronesSee's at p10, p50 and p90 where they
 are (each class is placed where SeaDronesSee's boxes lie in the frame: swimmers near the
-centre, boats and buoys high in oblique frames); the classes that are not yet are an xfail
-with their measured ratios.
+centre, boats and buoys high in oblique frames, on the row where it shows a box size drawn
+from its class's); the classes that are not yet are an xfail with their measured ratios.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def _size_ratios(pair) -> tuple[dict, str]:
             table(real, synth))
 
 
-@pytest.mark.parametrize("cls", ["jetski"])
+@pytest.mark.parametrize("cls", ["swimmer", "jetski", "life_saving_appliances"])
 def test_box_sizes_per_class(pair, cls):
     """The classes whose boxes follow SeaDronesSee's within 1.25 times at p10, p50, p90."""
     ratio, why = _size_ratios(pair)
@@ -93,16 +93,16 @@ def test_box_sizes_per_class(pair, cls):
 
 
 @pytest.mark.xfail(reason="measured here (200 frames, seed 0), p10/p50/p90 over "
-                          "SeaDronesSee's: swimmer 0.76/1.21/1.53, boat 1.76/1.63/2.76, "
-                          "life_saving_appliances 0.79/2.05/4.49, buoy 1.37/2.86/1.40 "
-                          "(jetski 0.87/0.93/1.13 passes above): each class is placed where "
-                          "SeaDronesSee's boxes lie in the frame, but the visible masks of "
-                          "swimmers and the near boats, appliances and buoys are still "
-                          "larger than the real boxes; SeaDronesSee's boats are mostly "
-                          "small craft (median box 2-3 m) yet as bright as white hulls: a "
-                          "mix of kayaks and rowing boats brings the boat median to 1.18 "
-                          "but their bright share to 0.33 (real 0.48)", strict=False)
-@pytest.mark.parametrize("cls", ["swimmer", "boat", "life_saving_appliances", "buoy"])
+                          "SeaDronesSee's: boat 1.36/1.03/1.26, buoy 1.21/2.71/0.94 "
+                          "(swimmer 0.83/1.11/1.20, jetski 0.88/0.89/0.93 and "
+                          "life_saving_appliances 0.86/0.96/0.92 pass above): each object "
+                          "is placed on the row where it shows a box size drawn from its "
+                          "class's, but the smallest sizes drawn for boats and for buoys "
+                          "(half of the real buoys' boxes are under 20 px in 4K) seldom "
+                          "fit the preset's views (farther than its frames reach), so those "
+                          "objects are drawn again as others and the small boxes are short",
+                   strict=False)
+@pytest.mark.parametrize("cls", ["boat", "buoy"])
 def test_box_sizes_per_class_not_yet(pair, cls):
     ratio, why = _size_ratios(pair)
     r = ratio[cls][[0, 2, 4]]

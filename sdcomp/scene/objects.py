@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..assets import library, sar
 from ..errors import SettingError, UserError
 
@@ -57,16 +59,24 @@ class ObjectSpec:
     ``(u0, v0, u1, v1)`` (None: anywhere in the frame). Where a camera operator frames the
     objects they look for (swimmers near the centre) and the rest lie in the background
     (boats high in an oblique frame, far away), the frame sets how far objects are and so
-    their pixel sizes."""
+    their pixel sizes. ``size``: the quantiles (at probabilities evenly spaced from 0 to 1)
+    of its box size ``sqrt(w h)`` over the camera's focal length (``fx``: so the sizes keep
+    their meaning when the frame is cropped or resized), or None; where given,
+    each object draws a size from them and is placed, within its frame part, on the image
+    row at which it shows about that size (as far as the view allows: a straight-down view
+    has one scale)."""
 
     mesh: str = "bluerov2"
     category: str = ""
     weight: float = 1.0
     frame: tuple[float, float, float, float] | None = None
+    size: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.frame is not None:
             object.__setattr__(self, "frame", _frame(self.frame))
+        if self.size is not None:
+            object.__setattr__(self, "size", _size(self.size))
         if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
             raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
                                          "bluerov2-heavy, swimmer, boat, jetski, "
@@ -84,6 +94,21 @@ class ObjectSpec:
                                            f"name")
 
 
+def _size(v: Any) -> tuple[float, ...]:
+    """``v`` as box-size quantiles (box sizes over the focal length): at least two numbers,
+    each above 0 and below 1, none smaller than the one before (SettingError otherwise)."""
+    try:
+        q = tuple(float(x) for x in v)
+    except (TypeError, ValueError):
+        q = ()
+    if len(q) < 2 or not all(0.0 < x < 1.0 for x in q) or any(
+            b < a for a, b in zip(q, q[1:], strict=False)):
+        raise SettingError("size", f"{{name}} {v!r} must be at least two box sizes over "
+                                   f"the focal length, each in (0, 1), in increasing order: "
+                                   f"the quantiles (e.g. [0.005, 0.012, 0.03])")
+    return q
+
+
 def _frame(v: Any) -> tuple[float, float, float, float]:
     """``v`` as a frame part ``(u0, v0, u1, v1)``: four numbers in [0, 1], u0 < u1 and
     v0 < v1 (SettingError otherwise)."""
@@ -99,15 +124,15 @@ def _frame(v: Any) -> tuple[float, float, float, float]:
 
 
 def object_spec(o: Any) -> ObjectSpec:
-    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight, frame}
-    table (UserError for another key, SettingError for a bad value)."""
+    """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight, frame,
+    size} table (UserError for another key, SettingError for a bad value)."""
     if isinstance(o, str):
         return ObjectSpec(o)
     if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category", "weight", "frame"}
+        unknown = set(o) - {"mesh", "category", "weight", "frame", "size"}
         if unknown:
             raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh, category, weight and frame")
+                            f"use mesh, category, weight, frame and size")
         return ObjectSpec(**o)
     if not isinstance(o, ObjectSpec):
         raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")
@@ -146,6 +171,40 @@ def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
     its middle, far too large (the renderer linearises the perspective at the object)."""
     low = tuple(a for a in assets if _top(a) <= 0.5 * altitude)
     return low or assets
+
+
+#: metres: what lies deeper under the waterline than this hardly shows from the air (the
+#: part of a body that counts towards its visible size)
+VISIBLE_DEPTH = 0.3
+
+
+def visible_size(asset: str) -> tuple[float, float]:
+    """(``across``, ``top``) metres of the part of the object drawn from ``asset`` above
+    :data:`VISIBLE_DEPTH` under its waterline: ``across`` the ``sqrt(w h)`` of the
+    axis-aligned box of its footprint (extents in x and y) averaged over headings (what
+    its box shows from straight above: a boat's hull, a swimmer's head, shoulders and
+    arms), ``top`` its height above the waterline (what an oblique view adds). Built-in
+    objects and mesh files alike; kept once known."""
+    return _visible_size(asset.removeprefix(CLUTTER_PREFIX))
+
+
+@functools.cache
+def _visible_size(name: str) -> tuple[float, float]:
+    parsed = sar.parse_name(name)
+    mesh = sar.build(*parsed) if parsed is not None else library.MeshSpec(name).load()
+    v = mesh.vertices
+    up = v[v[:, 2] >= mesh.waterline - VISIBLE_DEPTH]
+    if len(up) == 0:
+        up = v
+    length, beam = up[:, :2].max(axis=0) - up[:, :2].min(axis=0)
+    c, s = np.abs(np.cos(HEADINGS)), np.abs(np.sin(HEADINGS))
+    boxes = (length * c + beam * s) * (length * s + beam * c)
+    top = max(float(v[:, 2].max()) - mesh.waterline, 0.0)
+    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), top
+
+
+#: headings (radians) a footprint's box is averaged over (:func:`visible_size`)
+HEADINGS = np.linspace(0.0, math.pi / 2, 10)
 
 
 def _top(asset: str) -> float:

@@ -13,11 +13,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from .camera import CameraModel, CameraPose, ground_point
+from .camera import CameraModel, CameraPose, ground_point, ground_points
 from .config import GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
-from .objects import clutter_assets, low_enough, object_assets, under_way
+from .objects import clutter_assets, low_enough, object_assets, under_way, visible_size
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
@@ -167,9 +167,15 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     weights = [o.weight for o in config.objects]
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
-        k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
-        p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
-                   config.objects[k].frame)
+        for _pick in range(SIZE_PICKS):
+            k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
+            spec = config.objects[k]
+            p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
+                       spec.frame, spec.size)
+            if p is not None or spec.size is None:
+                break
+            # an object that cannot show its sizes in this view (a boat under a low drone
+            # looking straight down): another object drawn in its place
         if p is not None:
             placements.append(p)
     n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
@@ -207,12 +213,15 @@ def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
 def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
            pose: CameraPose, shore: Shore | None, role: Role, assets: tuple[str, ...],
            category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0),
-           frame: tuple[float, float, float, float] | None = None) -> Placement | None:
+           frame: tuple[float, float, float, float] | None = None,
+           size: tuple[float, ...] | None = None) -> Placement | None:
     """A random placement seen in the frame (possibly cut by its edge), on water; None
     when 8 tries find no such place. An object is ``assets[0]`` in ``tint``; clutter is
     one of its kind's ``assets`` (variants), or its one mesh in a random shade. Its centre
     lies in the image part ``frame`` (fractions (u0, v0, u1, v1)), or anywhere in the frame
-    up to :data:`EDGE_MARGIN` outside it."""
+    up to :data:`EDGE_MARGIN` outside it; with box-size quantiles ``size`` (over the focal
+    length), on the row of that part where it shows a size drawn from them
+    (:func:`_row_for_size`)."""
     u0, v0 = rng.random(), rng.random()
     heading = rng.uniform(0, 360)
     roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
@@ -224,17 +233,20 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
             asset = assets[int(rng.integers(len(assets)))]
         else:
             tint = _clutter_tint(rng)
+    target = None
+    if size is not None and frame is None:
+        frame = (0.0, 0.0, 1.0, 1.0)  # a size needs rows to choose from: the whole frame
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
-        if frame is None:
-            m = EDGE_MARGIN
-            u = (-m + (1 + 2 * m) * u0) * model.width
-            v = (-m + (1 + 2 * m) * v0) * model.height
-        else:
-            u = (frame[0] + (frame[2] - frame[0]) * u0) * model.width
-            v = (frame[1] + (frame[3] - frame[1]) * v0) * model.height
-        hit = ground_point(model, pose, u, v)
+        if size is not None:  # the box size to show, pixels
+            q = np.asarray(size, np.float64)
+            target = float(np.interp(rng.random(), np.linspace(0.0, 1.0, len(q)), q)) * \
+                model.fx
+        uv = _image_point(model, pose, frame, u0, v0, target, asset)
+        if uv is None:  # not at that size in this view: another draw
+            continue
+        hit = ground_point(model, pose, *uv)
         if hit is None:
             continue
         x, y = hit
@@ -245,6 +257,61 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
         return Placement(role, asset, category_id, x, y, heading, float(roll), float(pitch),
                          float(draft), tint)
     return None
+
+
+def _image_point(model: CameraModel, pose: CameraPose,
+                 frame: tuple[float, float, float, float] | None, u0: float, v0: float,
+                 target: float | None, asset: str) -> tuple[float, float] | None:
+    """The pixel (u, v) an object's centre is placed at, from uniform draws ``u0``, ``v0``:
+    anywhere in the frame up to :data:`EDGE_MARGIN` outside it (``frame`` None), or in the
+    part ``frame``, on the row where ``asset`` shows a box of ``target`` pixels when given
+    (None where no row does)."""
+    if frame is None:
+        m = EDGE_MARGIN
+        return (-m + (1 + 2 * m) * u0) * model.width, (-m + (1 + 2 * m) * v0) * model.height
+    u = (frame[0] + (frame[2] - frame[0]) * u0) * model.width
+    v = (frame[1] + (frame[3] - frame[1]) * v0) * model.height
+    if target is not None:
+        row, fits = _row_for_size(model, pose, u, frame[1] * model.height,
+                                  frame[3] * model.height, target, visible_size(asset), v0)
+        if not fits:
+            return None
+        v = row
+    return u, v
+
+
+#: objects drawn for one place when those drawn cannot show their box sizes in the view
+SIZE_PICKS = 4
+#: rows tried per placement when an object's box size is drawn (:func:`_row_for_size`)
+SIZE_ROWS = 32
+#: how far (ratio) a row's expected box size may miss the drawn one and still be chosen
+SIZE_SLACK = 1.15
+
+
+def _row_for_size(model: CameraModel, pose: CameraPose, u: float, v_lo: float, v_hi: float,
+                  target_px: float, size_m: tuple[float, float], pick: float
+                  ) -> tuple[float, bool]:
+    """(the image row, pixels in [v_lo, v_hi], in column ``u`` at which an object of
+    ``size_m`` = (across, top) metres (:func:`~sdcomp.scene.objects.visible_size`) shows a
+    box of about ``target_px`` pixels; whether it does). Its box ``sqrt(w h)`` at a
+    distance ``d`` seen at an elevation ``e`` is about ``fx / d sqrt(across (across sin e +
+    top cos e))``: the footprint foreshortened, the height seen obliquely. Of the
+    :data:`SIZE_ROWS` rows tried, those within :data:`SIZE_SLACK` of it are kept and
+    ``pick`` (in [0, 1)) chooses among them; where none is (a steep view has nearly one
+    scale: the size cannot be shown there), the nearest, and False (the caller draws
+    again)."""
+    rows = np.linspace(v_lo, v_hi, SIZE_ROWS)
+    pts, hit = ground_points(model, pose, np.full(SIZE_ROWS, u), rows)
+    dist = np.sqrt(pts[:, 0] ** 2 + pts[:, 1] ** 2 + pose.altitude ** 2)
+    sin_e = pose.altitude / dist
+    across, top = size_m
+    side = np.sqrt(across * (across * sin_e + top * np.sqrt(np.maximum(1 - sin_e ** 2, 0))))
+    shown = model.fx * side / dist
+    miss = np.where(hit, np.abs(np.log(np.maximum(shown, 1e-9) / target_px)), np.inf)
+    near = np.flatnonzero(miss <= math.log(SIZE_SLACK))
+    if len(near) == 0:
+        return float(rows[int(np.argmin(miss))]), False
+    return float(rows[near[min(int(pick * len(near)), len(near) - 1)]]), True
 
 
 def _clutter_tint(rng: np.random.Generator) -> tuple[float, float, float]:
