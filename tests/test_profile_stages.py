@@ -1,0 +1,23 @@
+"""tools/profile_stages.py: the per-stage profile times the generator's own steps."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+from sdcomp import GeneratorConfig
+
+TOOL = Path(__file__).resolve().parent.parent / "tools" / "profile_stages.py"
+
+
+def test_profile_times_every_step_of_the_generators_image(sprites_dir):
+    spec = importlib.util.spec_from_file_location("profile_stages", TOOL)
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    # the tool checks its first image against Generator.render's (it raises otherwise)
+    steps, cold = tool.profile(GeneratorConfig(width=96, height=64), 2, sprites_dir)
+    for step in ("scene: draw the scene", "water (view and draw)", "objects: layers, foam",
+                 "labels: map", "labels: measure", "camera: photometric"):
+        assert steps[step] > 0, step
+    assert any(k.startswith("  water: ") for k in steps) and cold > 0
