@@ -72,7 +72,8 @@ def undistort(xy: np.ndarray, k1: float, k2: float) -> np.ndarray:
 
 def _source(x, y, w, h, fx, fy, k1, k2, zoom, ca):
     """Source pixel coordinates in the rendered (pinhole) image of output pixels (x, y)
-    (float64 arrays, index coordinates) for a channel magnified by ``1 + ca``."""
+    (float64 arrays, index coordinates) for a channel magnified by ``1 + ca`` (a number,
+    or an array of one per point)."""
     cx, cy = (w - 1) / 2, (h - 1) / 2
     xd = (x - cx) / (zoom * fx * (1 + ca))
     yd = (y - cy) / (zoom * fy * (1 + ca))
@@ -92,13 +93,16 @@ def lens_zoom(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     bx = np.concatenate([t * (w - 1), t * (w - 1), np.zeros(n), np.full(n, w - 1.0)])
     by = np.concatenate([np.zeros(n), np.full(n, h - 1.0), t * (h - 1), t * (h - 1)])
 
+    # every channel's border in one evaluation (element-wise: the same numbers as one
+    # channel at a time), the channels' magnifications as per-point factors
+    k = len(cas)
+    bx, by = np.tile(bx, k), np.tile(by, k)
+    mag = np.repeat(np.asarray(cas, np.float64), 4 * n)
+
     def inside(z):
-        for ca in cas:
-            sx, sy = _source(bx, by, w, h, fx, fy, k1, k2, z, ca)
-            if sx.min() < -1e-9 or sy.min() < -1e-9 or sx.max() > w - 1 + 1e-9 or (
-                    sy.max() > h - 1 + 1e-9):
-                return False
-        return True
+        sx, sy = _source(bx, by, w, h, fx, fy, k1, k2, z, mag)
+        return not (sx.min() < -1e-9 or sy.min() < -1e-9 or sx.max() > w - 1 + 1e-9 or (
+            sy.max() > h - 1 + 1e-9))
 
     lo, hi = 0.25, 4.0
     for _ in range(50):
