@@ -191,7 +191,11 @@ def visible_size(asset: str) -> tuple[float, float]:
 @functools.cache
 def _visible_size(name: str) -> tuple[float, float]:
     parsed = sar.parse_name(name)
-    mesh = sar.build(*parsed) if parsed is not None else library.MeshSpec(name).load()
+    if parsed is None:
+        mesh = library.MeshSpec(name).load()
+    else:  # one build for both: the variant's top is kept for low_enough too
+        mesh = sar.build(*parsed)
+        sar.top_above_water(*parsed, mesh=mesh)
     v = mesh.vertices
     up = v[v[:, 2] >= mesh.waterline - VISIBLE_DEPTH]
     if len(up) == 0:
@@ -208,8 +212,13 @@ HEADINGS = np.linspace(0.0, math.pi / 2, 10)
 
 
 def _top(asset: str) -> float:
-    parsed = sar.parse_name(asset.removeprefix(CLUTTER_PREFIX))
-    return 0.0 if parsed is None else sar.top_above_water(*parsed)
+    name = asset.removeprefix(CLUTTER_PREFIX)
+    parsed = sar.parse_name(name)
+    if parsed is None:
+        return 0.0
+    if not sar.top_known(*parsed):  # built here once, for its visible size as well
+        _visible_size(name)
+    return sar.top_above_water(*parsed)
 
 
 def resolve_clutter_kinds(kinds: tuple[str, ...], object_meshes: list[str]

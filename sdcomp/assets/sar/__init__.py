@@ -88,6 +88,11 @@ def build(kind: str, variant: int = 0) -> ColoredMesh:
 _TOPS: dict[tuple[str, int], float] = {}
 
 
+def top_known(kind: str, variant: int) -> bool:
+    """Whether :func:`top_above_water` of the variant is kept already (no build needed)."""
+    return (kind, variant) in _TOPS
+
+
 def top_above_water(kind: str, variant: int, mesh: ColoredMesh | None = None) -> float:
     """Height (metres) of the variant's highest point above its waterline, kept once
     known: from ``mesh`` when given (the variant's, built by the caller anyway), else from
