@@ -239,6 +239,13 @@ def _check_lists(root: Path) -> list[str]:
     return [f"{p}: in both train.txt and val.txt" for p in sorted(both)]
 
 
+def _sequence_frame(file_name: str) -> tuple[str, str]:
+    """(sequence folder, frame file name) of a video frame's ``file_name``
+    (``SEQ/img1/000001.jpg``)."""
+    seq, _, frame = file_name.partition("/img1/")
+    return seq, frame
+
+
 def _check_frames(task: tuple[Path, list[tuple[dict, list[dict], list[dict]]]]
                   ) -> list[str]:
     """The problems of video frames: (image record, labelled, ignore regions) each."""
@@ -246,7 +253,7 @@ def _check_frames(task: tuple[Path, list[tuple[dict, list[dict], list[dict]]]]
     out = []
     for im, anns, ignore in frames:
         out += _check_frame(root / im["file_name"], root, im, anns, ignore)
-        seq, _, frame = im["file_name"].partition("/img1/")
+        seq, frame = _sequence_frame(im["file_name"])
         if (root / seq / "labels").is_dir():
             out += _check_yolo(im["file_name"],
                                root / seq / "labels" / Path(frame).with_suffix(".txt"), anns,
@@ -275,7 +282,7 @@ def check_video(folder: str | Path, workers: int = 2) -> Report:
         anns, ignore = labelled.get(im["id"], []), crowd.get(im["id"], [])
         report.count(anns, ignore)
         work.append((im, anns, ignore))
-        seq, _, frame = im["file_name"].partition("/img1/")
+        seq, frame = _sequence_frame(im["file_name"])
         frames.setdefault(seq, {})[int(Path(frame).stem)] = anns + ignore
     report.problems += _per_image(_check_frames, [(layout.root, c) for c in _chunks(work)],
                                   workers)

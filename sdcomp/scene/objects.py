@@ -193,9 +193,10 @@ def _visible_size(name: str) -> tuple[float, float]:
     parsed = sar.parse_name(name)
     if parsed is None:
         mesh = library.MeshSpec(name).load()
+        top = float(mesh.bounds[1, 2] - mesh.waterline)
     else:  # one build for both: the variant's top is kept for low_enough too
         mesh = sar.build(*parsed)
-        sar.top_above_water(*parsed, mesh=mesh)
+        top = sar.top_above_water(*parsed, mesh=mesh)
     v = mesh.vertices
     up = v[v[:, 2] >= mesh.waterline - VISIBLE_DEPTH]
     if len(up) == 0:
@@ -203,8 +204,7 @@ def _visible_size(name: str) -> tuple[float, float]:
     length, beam = up[:, :2].max(axis=0) - up[:, :2].min(axis=0)
     c, s = np.abs(np.cos(HEADINGS)), np.abs(np.sin(HEADINGS))
     boxes = (length * c + beam * s) * (length * s + beam * c)
-    top = max(float(v[:, 2].max()) - mesh.waterline, 0.0)
-    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), top
+    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), max(top, 0.0)
 
 
 #: headings (radians) a footprint's box is averaged over (:func:`visible_size`)
