@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..assets import library, sar
+from ..assets import clutter, library, sar
 from ..errors import SettingError, UserError
 
 CLUTTER_PREFIX = "clutter:"  # asset keys of clutter: "clutter:log", "clutter:boat-03"
@@ -174,8 +174,9 @@ def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
 
 
 #: metres: what lies deeper under the waterline than this hardly shows from the air (the
-#: part of a body that counts towards its visible size)
-VISIBLE_DEPTH = 0.3
+#: part of a body that counts towards its visible size): about where green coastal water
+#: (``--preset seadronessee``'s) keeps half an object's image, the mask's rule
+VISIBLE_DEPTH = 0.2
 
 
 def visible_size(asset: str) -> tuple[float, float]:
@@ -185,26 +186,42 @@ def visible_size(asset: str) -> tuple[float, float]:
     its box shows from straight above: a boat's hull, a swimmer's head, shoulders and
     arms), ``top`` its height above the waterline (what an oblique view adds). Built-in
     objects and mesh files alike; kept once known."""
-    return _visible_size(asset.removeprefix(CLUTTER_PREFIX))
+    across, top, _ = _sizes(asset.removeprefix(CLUTTER_PREFIX))
+    return across, top
+
+
+def footprint_radius(asset: str) -> float:
+    """Metres: the radius of the disc an object drawn from ``asset`` keeps to itself on the
+    water (no other object's disc overlaps it: two bodies do not share the water): the
+    mean of its footprint's half length and half beam (its whole mesh, over the sea's
+    plane), so a swimmer keeps about half a metre, a 6 m boat two."""
+    return _sizes(asset.removeprefix(CLUTTER_PREFIX))[2]
 
 
 @functools.cache
-def _visible_size(name: str) -> tuple[float, float]:
+def _sizes(name: str) -> tuple[float, float, float]:
+    """(across, top, radius) metres of mesh ``name`` (:func:`visible_size`,
+    :func:`footprint_radius`)."""
     parsed = sar.parse_name(name)
-    if parsed is None:
+    if parsed is None and name in clutter.KINDS:  # a clutter-only mesh (a log, foam)
+        mesh = clutter.build(name)
+        top = float(mesh.bounds[1, 2] - mesh.waterline)
+    elif parsed is None:
         mesh = library.MeshSpec(name).load()
         top = float(mesh.bounds[1, 2] - mesh.waterline)
     else:  # one build for both: the variant's top is kept for low_enough too
         mesh = sar.build(*parsed)
         top = sar.top_above_water(*parsed, mesh=mesh)
     v = mesh.vertices
+    half = (v[:, :2].max(axis=0) - v[:, :2].min(axis=0)) / 2.0
+    radius = float(half.mean())
     up = v[v[:, 2] >= mesh.waterline - VISIBLE_DEPTH]
     if len(up) == 0:
         up = v
     length, beam = up[:, :2].max(axis=0) - up[:, :2].min(axis=0)
     c, s = np.abs(np.cos(HEADINGS)), np.abs(np.sin(HEADINGS))
     boxes = (length * c + beam * s) * (length * s + beam * c)
-    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), max(top, 0.0)
+    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), max(top, 0.0), radius
 
 
 #: headings (radians) a footprint's box is averaged over (:func:`visible_size`)
@@ -217,7 +234,7 @@ def _top(asset: str) -> float:
     if parsed is None:
         return 0.0
     if not sar.top_known(*parsed):  # built here once, for its visible size as well
-        _visible_size(name)
+        _sizes(name)
     return sar.top_above_water(*parsed)
 
 

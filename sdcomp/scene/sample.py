@@ -17,7 +17,15 @@ from .camera import CameraModel, CameraPose, ground_point, ground_points
 from .config import GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
-from .objects import clutter_assets, low_enough, object_assets, under_way, visible_size
+from .objects import (
+    CLUTTER_PREFIX,
+    clutter_assets,
+    footprint_radius,
+    low_enough,
+    object_assets,
+    under_way,
+    visible_size,
+)
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
@@ -161,8 +169,10 @@ def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig) -> tuple[
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
                 pose: CameraPose, shore: Shore | None) -> tuple[Placement, ...]:
-    """The objects of interest, then the clutter, each seen in the frame and on water."""
-    placements = []
+    """The objects of interest, then the clutter, each seen in the frame and on water, none
+    on another (:func:`~sdcomp.scene.objects.footprint_radius`; foam patches excepted)."""
+    placements: list[Placement] = []
+    taken: list[tuple[float, float, float]] = []  # (x, y, radius) metres of those placed
     n_obj = int(config.count.sample(rng))
     weights = [o.weight for o in config.objects]
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
@@ -171,7 +181,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
             k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
             spec = config.objects[k]
             p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
-                       spec.frame, spec.size)
+                       spec.frame, spec.size, taken)
             if p is not None or spec.size is None:
                 break
             # an object that cannot show its sizes in this view (a boat under a low drone
@@ -181,7 +191,8 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
     for _ in range(n_clutter):
         kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
-        p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0)
+        p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0,
+                   taken=taken)
         if p is not None:
             placements.append(p)
     return tuple(placements)
@@ -214,14 +225,16 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
            pose: CameraPose, shore: Shore | None, role: Role, assets: tuple[str, ...],
            category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0),
            frame: tuple[float, float, float, float] | None = None,
-           size: tuple[float, ...] | None = None) -> Placement | None:
-    """A random placement seen in the frame (possibly cut by its edge), on water; None
-    when 8 tries find no such place. An object is ``assets[0]`` in ``tint``; clutter is
-    one of its kind's ``assets`` (variants), or its one mesh in a random shade. Its centre
-    lies in the image part ``frame`` (fractions (u0, v0, u1, v1)), or anywhere in the frame
-    up to :data:`EDGE_MARGIN` outside it; with box-size quantiles ``size`` (over the focal
-    length), on the row of that part where it shows a size drawn from them
-    (:func:`_row_for_size`)."""
+           size: tuple[float, ...] | None = None,
+           taken: list[tuple[float, float, float]] | None = None) -> Placement | None:
+    """A random placement seen in the frame (possibly cut by its edge), on water, its
+    footprint's disc clear of those in ``taken`` ((x, y, radius) metres; the new one's
+    is appended); None when 8 tries find no such place. An object is ``assets[0]`` in
+    ``tint``; clutter is one of its kind's ``assets`` (variants), or its one mesh in a
+    random shade. Its centre lies in the image part ``frame`` (fractions (u0, v0, u1, v1)),
+    or anywhere in the frame up to :data:`EDGE_MARGIN` outside it; with box-size quantiles
+    ``size`` (over the focal length), on the row of that part where it shows a size drawn
+    from them (:func:`_row_for_size`)."""
     u0, v0 = rng.random(), rng.random()
     heading = rng.uniform(0, 360)
     roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
@@ -233,6 +246,8 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
             asset = assets[int(rng.integers(len(assets)))]
         else:
             tint = _clutter_tint(rng)
+    # foam patches lie flat on the water: objects float in them, they keep no disc
+    radius = None if asset.removeprefix(CLUTTER_PREFIX) == "foam" else footprint_radius(asset)
     target = None
     if size is not None and frame is None:
         frame = (0.0, 0.0, 1.0, 1.0)  # a size needs rows to choose from: the whole frame
@@ -250,13 +265,25 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
         if hit is None:
             continue
         x, y = hit
-        if math.hypot(x, y) > MAX_DISTANCE_ALTITUDES * pose.altitude:
+        if not _free(x, y, MAX_DISTANCE_ALTITUDES * pose.altitude, shore, taken, radius):
             continue
-        if on_land(shore, x, y):
-            continue
+        if radius is not None and taken is not None:
+            taken.append((x, y, radius))
         return Placement(role, asset, category_id, x, y, heading, float(roll), float(pitch),
                          float(draft), tint)
     return None
+
+
+def _free(x: float, y: float, reach: float, shore: Shore | None,
+          taken: list[tuple[float, float, float]] | None, radius: float | None) -> bool:
+    """Whether (``x``, ``y``) (metres, on the sea) can take an object: within ``reach``
+    metres of the point under the camera, on water, and its disc of ``radius`` metres
+    (None: it keeps none) overlapping none of ``taken`` ((x, y, radius) each)."""
+    if math.hypot(x, y) > reach or on_land(shore, x, y):
+        return False
+    if radius is None or not taken:
+        return True
+    return all((x - tx) ** 2 + (y - ty) ** 2 >= (radius + tr) ** 2 for tx, ty, tr in taken)
 
 
 def _image_point(model: CameraModel, pose: CameraPose,
