@@ -6,7 +6,8 @@ at 20, 40 and 60 m, straight down and oblique (gimbal pitch 45 degrees), with th
 
 Each cell is the object as it appears in such a frame, cropped around its mask with a
 margin and scaled to the cell (its box size in the full frame is written under it, in
-pixels): the preset's lake water (coastal type, turbidity 0.5), wind 3 m/s, a clear sky with
+pixels): the preset's green coastal water (coastal type, turbidity 0.75, the middle of its
+0.5-1.0), wind 3 m/s, a clear sky with
 the sun at 55 degrees, no camera effects (the clean look: the renderer's image).
 The object stands at the image centre, heading 30 degrees; a window of the full frame
 around it is rendered (same focal length: the same pixels). A variant whose top stands more
@@ -35,9 +36,9 @@ from sdcomp.scene.water import WaterParams, constituents
 VIEWS = ((20.0, 90.0), (20.0, 45.0), (40.0, 90.0), (40.0, 45.0), (60.0, 90.0),
          (60.0, 45.0))  # altitude m, pitch deg
 CELL = 200  # pixels
-TURBIDITY = 0.5
+TURBIDITY = 0.75
 CHL, CDOM, TSM = constituents("coastal", TURBIDITY)
-#: the water of every cell: the preset's lake water, calm, deep, a clear sky
+#: the water of every cell: the preset's green coastal water, calm, deep, a clear sky
 WATER = WaterParams(name="coastal", water_type="coastal", chl=CHL, cdom=CDOM, tsm=TSM,
                     turbidity=TURBIDITY, patchiness=0.0, wind=3.0, sky="clear",
                     sun_elevation=55.0, sun_azimuth=135.0)
@@ -127,10 +128,12 @@ def main() -> None:
     config = GeneratorConfig.from_mapping({**preset("seadronessee"),
                                            "objects": list(args.kinds)})
     gen = Generator(config, args.sprites)
+    Path(args.out).mkdir(parents=True, exist_ok=True)
     for kind in args.kinds:
         path = Path(args.out) / f"{kind}.jpg"
         image = cv2.cvtColor(kind_sheet(gen, kind), cv2.COLOR_RGB2BGR)
-        cv2.imwrite(str(path), image, [cv2.IMWRITE_JPEG_QUALITY, 88])
+        if not cv2.imwrite(str(path), image, [cv2.IMWRITE_JPEG_QUALITY, 88]):
+            raise SystemExit(f"could not write {path}")
         print(f"wrote {path}")
 
 

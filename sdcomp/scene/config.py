@@ -228,9 +228,12 @@ class GeneratorConfig:
         self.camera_model()  # validates the combination
         n_alt, n_pitch = len(self.altitude.choices), len(self.pitch.choices)
         if self.pair_pitch and not n_alt == n_pitch > 0:
+            def kind(n: int) -> str:
+                return f"a list of {n}" if n else "not a list"
             raise SettingError("pair_pitch", f"{{name}} needs --altitude and --pitch as lists "
-                                             f"of one length (they have {n_alt} and {n_pitch} "
-                                             f"values): give both as lists, or drop {{name}}")
+                                             f"of one length (--altitude is {kind(n_alt)}, "
+                                             f"--pitch {kind(n_pitch)}): give both as lists, "
+                                             f"or add --no-pair-pitch")
 
     def _check_water(self) -> None:
         """Waters, skies, the camera look and the user's footage (and its labels)."""

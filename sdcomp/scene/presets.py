@@ -76,11 +76,12 @@ SDS_SIZES = {
 #: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
 #: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts and placed
 #: where its boxes lie in the frame (:data:`SDS_FRAMES`) at the distance where they show
-#: its box sizes (:data:`SDS_SIZES`); the water
-#: of Lake Constance, where it was filmed (oligotrophic: chlorophyll 1-3 mg/m^3, little
-#: CDOM, Secchi depths of 6-10 m), which is the ``coastal`` water type at turbidity 0.2-0.8
-#: (chlorophyll 0.8-2.6 mg/m^3, CDOM 0.08-0.26 /m, sediment 0.8-2.6 g/m^3: teal to
-#: green-blue, a swimmer's body shows under the head); mostly open, deep water (a sandy
+#: its box sizes (:data:`SDS_SIZES`); green coastal water as its frames show it (Lake
+#: Constance, where it was filmed, near the shore and in summer: Secchi depths of 2.5-6 m,
+#: below the open lake's 6-10 m; a swimmer's body below the shoulders is lost in it), the
+#: ``coastal`` water type at turbidity 0.5-1.0 (chlorophyll 1.4-4 mg/m^3, CDOM 0.14-0.4
+#: /m, sediment 1.4-4 g/m^3: an object keeps half its image 0.2-0.5 m down, about
+#: :data:`~sdcomp.scene.objects.VISIBLE_DEPTH`); mostly open, deep water (a sandy
 #: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
 #: not annotate (logs, foam); ignore regions as its category 0 ``ignored``
 SEADRONESSEE: dict[str, Any] = {
@@ -91,7 +92,7 @@ SEADRONESSEE: dict[str, Any] = {
     "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
     "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],
     "width": 3840, "height": 2160,
-    "water": ["coastal"], "turbidity": "0.2-0.8", "shallow": 0.1,
+    "water": ["coastal"], "turbidity": "0.5-1.0", "shallow": 0.1,
     "clutter": 0.3, "clutter_kinds": ["log", "foam"], "shore": 0.05,
     "ignored_category": True,
 }

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 RGB = tuple[int, int, int]
 
 # Monk Skin Tone scale, MST-1 .. MST-10 (Ellis Monk 2019; Google's published swatches
@@ -26,9 +28,19 @@ HAIR: tuple[RGB, ...] = (
 )
 
 
+#: how often each :data:`HAIR` colour is drawn for people in the water (relative weights):
+#: mostly dark (black and dark brown), fewer light (blond, red, grey), as in Europe's
+#: population, where the public SAR footage is flown
+HAIR_SHARE: tuple[float, ...] = (0.22, 0.22, 0.18, 0.14, 0.08, 0.06, 0.05, 0.05)
+#: diffuse reflectance factor of wet hair (linear light): the water film between the fibres
+#: cuts their multiple scattering, so wet hair looks about half as bright as dry
+WET_HAIR = 0.45
+
+
 def wet_hair(rgb: RGB) -> RGB:
-    """Wet hair is darker: 0.75 x the dry colour."""
-    r, g, b = (round(c * 0.75) for c in rgb)
+    """``rgb`` (sRGB 0-255) as wet hair: :data:`WET_HAIR` x the dry colour in linear light."""
+    lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * WET_HAIR
+    r, g, b = (int(v) for v in np.clip(np.rint(255.0 * lin ** (1 / 2.2)), 0, 255))
     return r, g, b
 
 

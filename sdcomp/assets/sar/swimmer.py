@@ -18,8 +18,8 @@ waterline follows the pose (head- or shoulder-referenced), not a buoyancy balanc
 holds the head up by effort, a life jacket lifts the chest. Poses are weighted as search-and-
 rescue footage shows people in the water (:data:`POSE_CYCLE`: mostly upright and still).
 Outfits, all wet (darker, :data:`WET`): dark wetsuits most, swimwear, clothes (a person
-overboard), shorties; a foam life jacket or an inflated yoke on about a quarter; wet hair or,
-on a few, a swim cap.
+overboard), shorties; a foam life jacket or an inflated yoke on one in five; wet dark hair
+mostly or, on one in eight, a swim cap.
 """
 
 from __future__ import annotations
@@ -38,10 +38,10 @@ POSES = ("tread", "wave", "crawl", "breast", "back", "distress")
 SUB_TYPES = POSES
 #: the pose of variant ``v`` is ``POSE_CYCLE[v % len(POSE_CYCLE)]``: weighted as people in
 #: the water are seen in search-and-rescue footage, mostly upright and still (waiting to be
-#: picked up: treading water 50 %, waving 10 %, in distress 5 %), some floating on the back
-#: (15 %), the rest swimming (crawl 10 %, breaststroke 10 %)
+#: picked up: treading water 60 %, waving 10 %, in distress 5 %), some floating on the back
+#: (10 %), the rest swimming (crawl 10 %, breaststroke 5 %)
 POSE_CYCLE = ("tread", "back", "crawl", "tread", "wave", "breast", "tread", "distress",
-              "tread", "tread", "back", "tread", "breast", "wave", "tread", "back", "crawl",
+              "tread", "tread", "tread", "tread", "tread", "wave", "tread", "back", "crawl",
               "tread", "tread", "tread")
 #: the poses that swim (under way); the others drift
 SWIMMING = ("crawl", "breast")
@@ -53,9 +53,14 @@ OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
 #: swimwear and a person overboard in clothes, one in ten each
 OUTFIT_CYCLE = ("wetsuit", "wetsuit", "shorty", "wetsuit", "clothes", "wetsuit", "wetsuit",
                 "swimwear", "wetsuit", "wetsuit")
-#: hair as drawn: wet hair mostly, a swim cap on one in eight
+#: hair: variant ``v`` has ``HAIR_DRAW[v % len(HAIR_DRAW)]`` (a cycle): wet hair mostly, a
+#: swim cap on one in eight
 HAIR = ("short", "long", "bald", "cap")
-HAIR_DRAW = ("short", "short", "short", "long", "long", "long", "bald", "cap")
+HAIR_DRAW = ("short", "short", "long", "short", "long", "bald", "long", "cap")
+#: the variants in a life jacket (of each twenty): one in five, the two in clothes (a
+#: person overboard from a boat) and two of the still ones; search-and-rescue footage shows
+#: dark suits most, orange and red jackets on some
+VESTED = (4, 9, 14, 15)
 #: wet skin and fabric are darker than dry (water fills the surface's pores and fibres and
 #: cuts its diffuse reflectance; Lekner & Dorf 1988): albedo factor of wet clothing and skin
 WET = 0.8
@@ -94,9 +99,10 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
     feet_pointed = [_dir(rng, (0.2, 0.1, -1), 10), _dir(rng, (0.2, -0.1, -1), 10)]
     p: dict = {"name": name, "head_pitch": 0.0, "head_yaw": 0.0, "roll": 0.0, "flip": False}
     if name in ("tread", "wave"):
-        # upper arms out to the sides and down, forearms sculling sideways just under the
-        # surface: the hands sweep 0.2-0.3 m down, half a metre out from the shoulders
-        arms = _sym(rng, (0.20, 0.70, -0.68), (0.45, 0.80, -0.35))
+        # upper arms out to the sides and down, forearms sculling sideways at chest height:
+        # the elbows about 0.25 m down, the hands 0.35-0.4 m, half a metre out from the
+        # shoulders (in coastal water, below what the drone sees of them)
+        arms = _sym(rng, (0.10, 0.50, -0.86), (0.45, 0.75, -0.48))
         legs = [[_dir(rng, (0.55, 0.25, -0.8)), _dir(rng, (-0.3, 0.15, -0.95))],
                 [_dir(rng, (0.15, -0.25, -0.95)), _dir(rng, (-0.45, -0.1, -0.88))]]
         if name == "wave":
@@ -171,9 +177,10 @@ def _wet(rgb) -> tuple[int, int, int]:
     return r, g, b
 
 
-def _outfit(rng: np.random.Generator, pose: str, kind: str) -> dict:
+def _outfit(rng: np.random.Generator, kind: str, hair_style: str, vested: bool) -> dict:
     """Colours (sRGB lists) of every part, hair and vest of an outfit of ``kind``
-    (:data:`OUTFITS`), all wet; JSON-able."""
+    (:data:`OUTFITS`) with hair ``hair_style`` (:data:`HAIR`) and a life jacket when
+    ``vested``, all wet; JSON-able."""
     tone = int(rng.integers(len(palette.SKIN_MONK)))
     skin = _wet(jitter(palette.skin(tone), rng, 0.04))
     c = dict.fromkeys(("chest", "hips", "upper_arm", "forearm", "hand", "thigh", "shin",
@@ -198,16 +205,13 @@ def _outfit(rng: np.random.Generator, pose: str, kind: str) -> dict:
         if rng.random() < 0.5:
             c["forearm"] = shirt
         c["foot"] = _wet(jitter(pick(rng, palette.SHOES), rng))
-    hair_style = pick(rng, HAIR_DRAW)
     hair = (jitter(pick(rng, palette.SWIM_CAPS), rng) if hair_style == "cap"
-            else jitter(palette.wet_hair(pick(rng, palette.HAIR)), rng))
-    # life jackets on about a quarter: most of those in clothes (a person overboard from a
-    # boat), some of the still ones, few swimmers
-    vest_p = {"clothes": 0.6}.get(kind, 0.25 if pose in ("tread", "back", "distress", "wave")
-                                   else 0.05)
+            else jitter(palette.wet_hair(palette.HAIR[int(rng.choice(
+                len(palette.HAIR), p=np.asarray(palette.HAIR_SHARE) / sum(palette.HAIR_SHARE)))]),
+                rng))
     vest = None
     vest_style = "foam"
-    if rng.random() < vest_p:
+    if vested:
         vest = jitter(pick(rng, palette.VESTS), rng)
         vest_style = pick(rng, ("foam", "foam", "yoke"))
     return {"outfit": kind, "skin_tone_mst": tone + 1, "skin": list(skin),
@@ -234,7 +238,8 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
                                                0.170, 0.215)), 3),
             "girth": round(float(rng.uniform(0.9, 1.15)), 3), "female": female}
     return {"kind": "swimmer", "sub_type": pose, "body": body, "pose": _pose(pose, rng),
-            **_outfit(rng, pose, OUTFIT_CYCLE[variant % len(OUTFIT_CYCLE)])}
+            **_outfit(rng, OUTFIT_CYCLE[variant % len(OUTFIT_CYCLE)],
+                      HAIR_DRAW[variant % len(HAIR_DRAW)], variant % 20 in VESTED)}
 
 
 def _to_pose(p: dict) -> Pose:
