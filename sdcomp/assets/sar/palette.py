@@ -37,6 +37,12 @@ HAIR_SHARE: tuple[float, ...] = (0.22, 0.22, 0.18, 0.14, 0.08, 0.06, 0.05, 0.05)
 WET_HAIR = 0.45
 
 
+def draw_hair(rng: np.random.Generator) -> RGB:
+    """One :data:`HAIR` colour drawn with the weights of :data:`HAIR_SHARE` (dry)."""
+    p = np.asarray(HAIR_SHARE) / sum(HAIR_SHARE)
+    return HAIR[int(rng.choice(len(HAIR), p=p))]
+
+
 def wet_hair(rgb: RGB) -> RGB:
     """``rgb`` (sRGB 0-255) as wet hair: :data:`WET_HAIR` x the dry colour in linear light."""
     lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * WET_HAIR

@@ -18,8 +18,8 @@ waterline follows the pose (head- or shoulder-referenced), not a buoyancy balanc
 holds the head up by effort, a life jacket lifts the chest. Poses are weighted as search-and-
 rescue footage shows people in the water (:data:`POSE_CYCLE`: mostly upright and still).
 Outfits, all wet (darker, :data:`WET`): dark wetsuits most, swimwear, clothes (a person
-overboard), shorties; a foam life jacket or an inflated yoke on one in five; wet dark hair
-mostly or, on one in eight, a swim cap.
+overboard), shorties; a foam life jacket or an inflated yoke on one in five; wet hair, mostly
+dark, or (on two of twenty) a swim cap.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
 OUTFIT_CYCLE = ("wetsuit", "wetsuit", "shorty", "wetsuit", "clothes", "wetsuit", "wetsuit",
                 "swimwear", "wetsuit", "wetsuit")
 #: hair: variant ``v`` has ``HAIR_DRAW[v % len(HAIR_DRAW)]`` (a cycle): wet hair mostly, a
-#: swim cap on one in eight
+#: swim cap on two of the twenty variants
 HAIR = ("short", "long", "bald", "cap")
 HAIR_DRAW = ("short", "short", "long", "short", "long", "bald", "long", "cap")
 #: the variants in a life jacket (of each twenty): one in five, the two in clothes (a
@@ -206,9 +206,7 @@ def _outfit(rng: np.random.Generator, kind: str, hair_style: str, vested: bool) 
             c["forearm"] = shirt
         c["foot"] = _wet(jitter(pick(rng, palette.SHOES), rng))
     hair = (jitter(pick(rng, palette.SWIM_CAPS), rng) if hair_style == "cap"
-            else jitter(palette.wet_hair(palette.HAIR[int(rng.choice(
-                len(palette.HAIR), p=np.asarray(palette.HAIR_SHARE) / sum(palette.HAIR_SHARE)))]),
-                rng))
+            else jitter(palette.wet_hair(palette.draw_hair(rng)), rng))
     vest = None
     vest_style = "foam"
     if vested:
