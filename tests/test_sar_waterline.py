@@ -4,6 +4,7 @@ submerged fraction."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from sdcomp.assets.sar import VARIANTS, boat, describe_variant, jetski
@@ -97,3 +98,33 @@ def test_ring_buoy_rides_high_but_wet():
         t = p["thickness"]
         depth = m.waterline - (-t / 2)  # ring centred on z = 0, only the ring below it
         assert 0.15 * t < depth < 0.5 * t
+
+
+def test_swimmer_mix_is_what_sar_footage_shows():
+    """Of the twenty swimmer variants: upright and still most (treading 12), dark full
+    wetsuits on 14, a life jacket on 4 (one in five), a swim cap on 2, wet hair dark on most
+    of the rest (mean sRGB under 60 on at least 12 of the 18), a rescue tube on 2."""
+    ps = [describe_variant("swimmer", v) for v in range(VARIANTS["swimmer"])]
+    assert sum(p["sub_type"] == "tread" for p in ps) == 12
+    assert sum(p["outfit"] == "wetsuit" for p in ps) == 14
+    assert sum(p["vest"] is not None for p in ps) == 4
+    assert sum(p["hair_style"] == "cap" for p in ps) == 2
+    hair = [sum(p["hair"]) / 3 for p in ps if p["hair_style"] != "cap"]
+    assert sum(h < 60 for h in hair) >= 12, hair
+    assert sum(p["tube"] is not None for p in ps) == 2
+
+
+@pytest.mark.parametrize("v", [v for v in range(VARIANTS["swimmer"])
+                               if describe_variant("swimmer", v)["tube"] is not None])
+def test_a_rescue_tube_floats_across_the_chest(v):
+    """The tube's faces (its colour) lie around the waterline, half out of the water, and
+    span about its metre across, wider than the shoulders."""
+    m = build_cached("swimmer", v)
+    colour = describe_variant("swimmer", v)["tube"]
+    faces = (m.face_colors == np.asarray(colour, np.uint8)).all(axis=1)
+    assert faces.sum() > 20
+    pts = m.vertices[np.unique(m.faces[faces])]
+    z = pts[:, 2] - m.waterline
+    assert abs(float(z.mean())) < 0.03 and z.min() < -0.05 and z.max() > 0.05
+    span = float(np.linalg.norm(np.ptp(pts[:, :2], axis=0)))
+    assert 0.95 < span < 1.3

@@ -69,6 +69,8 @@ TROUSERS: tuple[RGB, ...] = ((55, 70, 100), (40, 50, 75), (150, 135, 100), (30, 
                              (90, 90, 85))
 SHOES: tuple[RGB, ...] = ((235, 235, 230), (30, 30, 32), (90, 60, 40), (40, 60, 120))
 VESTS: tuple[RGB, ...] = ((245, 100, 20), (245, 100, 20), (240, 195, 20), (205, 30, 30))
+#: lifeguards' rescue tubes: red most, orange, yellow
+RESCUE_TUBES: tuple[RGB, ...] = ((205, 30, 30), (205, 30, 30), (245, 100, 20), (240, 195, 20))
 
 # Boats and personal watercraft
 # hulls: white gelcoat on three in four leisure boats (off-white and light grey among them),

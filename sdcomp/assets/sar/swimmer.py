@@ -19,17 +19,19 @@ holds the head up by effort, a life jacket lifts the chest. Poses are weighted a
 rescue footage shows people in the water (:data:`POSE_CYCLE`: mostly upright and still).
 Outfits, all wet (darker, :data:`WET`): dark wetsuits most, swimwear, clothes (a person
 overboard), shorties; a foam life jacket or an inflated yoke on one in five; wet hair, mostly
-dark, or (on two of twenty) a swim cap.
+dark, or (on two of twenty) a swim cap; a lifeguard's rescue tube held across the chest on two
+of twenty.
 """
 
 from __future__ import annotations
 
 import math
 
+import manifold3d as m3
 import numpy as np
 
 from ..mesh import ColoredMesh
-from ..solids import Painter
+from ..solids import Painter, capsule, union
 from . import palette
 from .common import jitter, pick
 from .person import Body, Outfit, Pose, build_person
@@ -61,6 +63,11 @@ HAIR_DRAW = ("short", "short", "long", "short", "long", "bald", "long", "cap")
 #: person overboard from a boat) and two of the still ones; search-and-rescue footage shows
 #: dark suits most, orange and red jackets on some
 VESTED = (4, 9, 14, 15)
+#: the variants holding a rescue tube (of each twenty): a lifeguard's foam torpedo buoy,
+#: 1 m long and 15 cm thick, across the chest and under the arms, floating half out of the
+#: water in front of them
+TUBE_HOLDERS = (8, 18)
+TUBE_LENGTH, TUBE_RADIUS = 1.0, 0.075  # metres
 #: wet skin and fabric are darker than dry (water fills the surface's pores and fibres and
 #: cuts its diffuse reflectance; Lekner & Dorf 1988): albedo factor of wet clothing and skin
 WET = 0.8
@@ -235,9 +242,13 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
             "head_length": round(float(np.clip(rng.normal(0.189 if female else 0.199, 0.007),
                                                0.170, 0.215)), 3),
             "girth": round(float(rng.uniform(0.9, 1.15)), 3), "female": female}
-    return {"kind": "swimmer", "sub_type": pose, "body": body, "pose": _pose(pose, rng),
-            **_outfit(rng, OUTFIT_CYCLE[variant % len(OUTFIT_CYCLE)],
-                      HAIR_DRAW[variant % len(HAIR_DRAW)], variant % 20 in VESTED)}
+    out = {"kind": "swimmer", "sub_type": pose, "body": body, "pose": _pose(pose, rng),
+           **_outfit(rng, OUTFIT_CYCLE[variant % len(OUTFIT_CYCLE)],
+                     HAIR_DRAW[variant % len(HAIR_DRAW)], variant % 20 in VESTED)}
+    # drawn last: the other variants' draws stay as they were
+    out["tube"] = (list(jitter(pick(rng, palette.RESCUE_TUBES), rng))
+                   if variant % 20 in TUBE_HOLDERS else None)
+    return out
 
 
 def _to_pose(p: dict) -> Pose:
@@ -266,4 +277,26 @@ def make(params: dict, name: str) -> ColoredMesh:
            "shoulders": shoulders}[pose["water"]]
     # an upright body in a life jacket floats higher: the waterline at the chest
     lift = VEST_LIFT if params["vest"] is not None and pose["water"] == "shoulders" else 0.0
-    return painter.finish(solid, ref + pose["water_offset"] - lift, name)
+    waterline = ref + pose["water_offset"] - lift
+    if params.get("tube") is not None:
+        solid = union([solid, _tube(painter, joints, waterline, params["tube"])])
+    return painter.finish(solid, waterline, name)
+
+
+def _tube(painter: Painter, joints: dict[str, np.ndarray], waterline: float, colour
+          ) -> m3.Manifold:
+    """A rescue tube (:data:`TUBE_LENGTH` x :data:`TUBE_RADIUS` metres, ``colour`` sRGB)
+    floating on the ``waterline`` (z, object frame) across the front of the chest of the
+    person with ``joints`` (object frame): level, at right angles to the way the body faces,
+    its axis a hand's breadth in front of the shoulders."""
+    across = joints["shoulder_l"] - joints["shoulder_r"]
+    across[2] = 0.0
+    across /= max(float(np.linalg.norm(across)), 1e-9)
+    front = np.array([across[1], -across[0], 0.0])  # horizontal, at right angles to it
+    mid = (joints["shoulder_l"] + joints["shoulder_r"]) / 2
+    if float(np.dot(joints["nose"] - mid, front)) < 0:
+        front = -front
+    centre = np.array([mid[0], mid[1], waterline]) + front * 0.2
+    half = across * TUBE_LENGTH / 2
+    return painter.paint(capsule(centre - half, centre + half, TUBE_RADIUS, TUBE_RADIUS),
+                         colour)
