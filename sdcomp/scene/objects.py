@@ -203,11 +203,8 @@ def _sizes(name: str) -> tuple[float, float, float]:
     """(across, top, radius) metres of mesh ``name`` (:func:`visible_size`,
     :func:`footprint_radius`)."""
     parsed = sar.parse_name(name)
-    if parsed is None and name in clutter.KINDS:  # a clutter-only mesh (a log, foam)
-        mesh = clutter.build(name)
-        top = float(mesh.bounds[1, 2] - mesh.waterline)
-    elif parsed is None:
-        mesh = library.MeshSpec(name).load()
+    if parsed is None:  # a clutter-only mesh (a log, foam), a built-in or a file
+        mesh = clutter.build(name) if name in clutter.KINDS else library.MeshSpec(name).load()
         top = float(mesh.bounds[1, 2] - mesh.waterline)
     else:  # one build for both: the variant's top is kept for low_enough too
         mesh = sar.build(*parsed)

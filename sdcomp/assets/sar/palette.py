@@ -43,11 +43,17 @@ def draw_hair(rng: np.random.Generator) -> RGB:
     return HAIR[int(rng.choice(len(HAIR), p=p))]
 
 
-def wet_hair(rgb: RGB) -> RGB:
-    """``rgb`` (sRGB 0-255) as wet hair: :data:`WET_HAIR` x the dry colour in linear light."""
-    lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * WET_HAIR
+def darken(rgb, factor: float) -> RGB:
+    """``rgb`` (sRGB 0-255) with its diffuse reflectance times ``factor`` (in linear light,
+    gamma 2.2), rounded and clipped."""
+    lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * factor
     r, g, b = (int(v) for v in np.clip(np.rint(255.0 * lin ** (1 / 2.2)), 0, 255))
     return r, g, b
+
+
+def wet_hair(rgb: RGB) -> RGB:
+    """``rgb`` (sRGB 0-255) as wet hair: :data:`WET_HAIR` x the dry colour in linear light."""
+    return darken(rgb, WET_HAIR)
 
 
 SWIM_CAPS: tuple[RGB, ...] = (

@@ -179,9 +179,7 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
 
 def _wet(rgb) -> tuple[int, int, int]:
     """``rgb`` (sRGB 0-255) darkened as wet (:data:`WET`, applied in linear light)."""
-    lin = (np.asarray(rgb, float) / 255.0) ** 2.2 * WET
-    r, g, b = (int(v) for v in np.clip(np.rint(255.0 * lin ** (1 / 2.2)), 0, 255))
-    return r, g, b
+    return palette.darken(rgb, WET)
 
 
 def _outfit(rng: np.random.Generator, kind: str, hair_style: str, vested: bool) -> dict:
