@@ -18,7 +18,15 @@ from sdcomp.annotate import AnnotationRule
 from sdcomp.pipeline import Generator
 from sdcomp.render.foam import contact_foam, ring_strength
 from sdcomp.render.lighting import lambert
-from sdcomp.render.submerge import LUMA, WaterColumn, submerge, water_columns, waterline_level
+from sdcomp.render.submerge import (
+    LUMA,
+    WaterColumn,
+    apparent_depth,
+    refract,
+    submerge,
+    water_columns,
+    waterline_level,
+)
 from sdcomp.render.water.optics import N_WATER, fresnel, refracted_cos
 from sdcomp.scene.camera import CameraPose
 from sdcomp.scene.config import GeneratorConfig
@@ -195,6 +203,76 @@ def test_submerged_parts_blur_with_depth():
     shallow = out[8:56, 4:28, 1].std()
     deep = out[8:56, 36:60, 1].std()
     assert deep < 0.3 * shallow
+
+
+def test_apparent_depth_is_snells_law():
+    """A point under a flat surface looks shallower by tan(theta_w) / tan(theta): 1 / n
+    straight down, less the more obliquely it is seen (a ray traced through the surface)."""
+    assert apparent_depth(1.0) == pytest.approx(1.0 / N_WATER, rel=1e-3)
+    for deg in (20.0, 45.0, 60.0, 75.0):
+        t = math.radians(deg)
+        t_w = math.asin(math.sin(t) / N_WATER)
+        # the refracted ray from a point 1 m down reaches the surface tan(t_w) away; a
+        # point k m down in air is seen there when k tan(t) = tan(t_w)
+        assert apparent_depth(math.cos(t)) == pytest.approx(math.tan(t_w) / math.tan(t),
+                                                              rel=1e-6)
+    assert apparent_depth(math.cos(math.radians(45))) == pytest.approx(0.63, abs=0.01)
+    assert apparent_depth(math.cos(math.radians(20))) > apparent_depth(math.cos(math.radians(60)))
+
+
+def _column_stack(n: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """A vertical bar (columns 28-35) from row 8 to 55: above the water down to row 20,
+    then 1 cm deeper per row (stack channels: colour 3, coverage, weight)."""
+    stack = np.zeros((n, n, 5), np.float32)
+    stack[8:56, 28:36, :3] = 100.0
+    stack[8:56, 28:36, 3] = 1.0
+    stack[8:56, 28:36, 4] = 1.0
+    rows = np.arange(n, dtype=np.float32)[:, None]
+    depth = np.broadcast_to((rows - 20.0) * 0.01, (n, n)).astype(np.float32)
+    return stack, depth
+
+
+def test_refraction_lifts_submerged_parts_towards_the_surface():
+    """Seen 45 degrees off the vertical (the world's up along the sprite's up at sin 45),
+    a bar hanging 0.35 m under the surface shows (1 - k) shorter below the waterline; the
+    part above the water does not move; straight down nothing moves."""
+    stack, depth = _column_stack()
+    pitch = 0.01 * math.sin(math.radians(45))  # a vertical bar: 1 cm deeper per row
+    up = np.array([0.0, math.sin(math.radians(45)), math.cos(math.radians(45))])
+    out = refract(stack, depth, up, pitch)
+    cover = out[:, 28:36, 3].mean(axis=1)
+    k = apparent_depth(math.cos(math.radians(45)))
+    below = float(cover[20:].sum())  # rows of the submerged part that still show the bar
+    assert below == pytest.approx(1 + 35 * k, abs=1.0)  # 35 rows of depth, k as long
+    np.testing.assert_array_equal(out[8:20], stack[8:20])  # dry: unchanged
+    assert float(out[..., 3].max()) <= 1.0 + 1e-5
+    assert refract(stack, depth, np.array([0.0, 0.0, 1.0]), pitch) is stack
+    dry = np.where(depth > 0, -0.1, depth).astype(np.float32)
+    assert refract(stack, dry, up, pitch) is stack
+
+
+def test_refraction_draws_the_submerged_body_shorter_seen_obliquely(gen, monkeypatch):
+    """The BlueROV2 awash, seen 45 degrees off the vertical: with the surface's refraction
+    its submerged frame covers fewer pixels than drawn as if through air (it lies
+    shallower), the same straight down."""
+    from sdcomp.render import layers as layers_mod
+    from sdcomp.render.lighting import lighting
+
+    water = _water("coastal", 0.3)
+    light = _light(gen, water)
+    sprites = gen.compositor.assets.sprites
+
+    def covered(pitch: float) -> float:
+        # the camera 12 m up looks along +x: the ROV where the view's centre meets the sea
+        x = 12.0 / math.tan(math.radians(pitch))
+        s = _scene(gen, [_rov(x=x, draft=0.1)], water, pitch=pitch)
+        return float(layers_mod.build_layers(s, lighting(s, light), sprites)[0].alpha.sum())
+
+    refracted = {p: covered(p) for p in (45.0, 90.0)}
+    monkeypatch.setattr(layers_mod, "refract", lambda stack, *a: stack)
+    in_air = {p: covered(p) for p in (45.0, 90.0)}
+    assert refracted[45.0] < 0.95 * in_air[45.0]
+    assert refracted[90.0] == pytest.approx(in_air[90.0], rel=0.01)
 
 
 def test_waterline_ripples_have_the_asked_height_and_are_repeatable():

@@ -28,6 +28,7 @@ from .submerge import (
     BLUR_PER_METRE,
     LUMA,
     WaterColumn,
+    refract,
     submerge,
     water_columns,
     waterline_level,
@@ -276,6 +277,7 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     stack[..., 3] = prepared[0]
     depth = shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
                   (scene.water.seed, i))
+    stack = refract(stack, depth, (view.basis @ view.rot.T)[:, 2], pitch_m)
     x0, y0, x1, y1 = view.roi
     warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -288,7 +290,8 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     size_m = math.sqrt(float(prepared[0].sum())) * pitch_m
     offset, strength, blur = shadow(view, model, scene, lit, column, size_m)
     a = view.affine
-    full = float(prepared[0].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
+    # the silhouette as the surface shows it (refracted), inside the frame or not
+    full = float(stack[..., 3].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
     layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
                   warped[..., 3], warped[..., 4], offset, strength, blur, full)
     foam = [foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column),

@@ -22,7 +22,9 @@ its brightness). The water's own light from behind the object is scattered the s
 the part of it that the object blocks from the image (``exp(-(K_d + k_C) d)`` minus the
 image's share) comes back into the footprint as the blurred surroundings, so a thin limb's
 shadow fills in with the water's colour (its contrast decays with ``c``, as Duntley's
-contrast transmittance has it) while a broad hull keeps its shadow. In clear
+contrast transmittance has it) while a broad hull keeps its shadow. Seen through the
+surface, a submerged point also lies shallower than it is (:func:`refract`: a body hanging
+under a swimmer's shoulders looks shorter the more obliquely it is seen). In clear
 ocean water a body half a metre down keeps most of its image; in coastal water about half;
 in turbid, lake and algal water next to nothing below a few decimetres. The mask rule's
 weight is the image's share.
@@ -243,3 +245,65 @@ def submerge(above: np.ndarray, below: np.ndarray, alpha: np.ndarray, depth: np.
     out = above * (1.0 - u3) + seen * u3
     trans = (t_img @ LUMA) * under + (1.0 - under)
     return out.astype(np.float32), (alpha * trans).astype(np.float32)
+
+
+def apparent_depth(cos_view: float) -> float:
+    """The factor by which the flat surface's refraction lifts a submerged point towards it,
+    seen along a ray ``cos_view`` from the vertical: its image lies where the refracted ray
+    through it crosses the surface, as a point at ``k`` times its depth would in air, ``k =
+    tan(theta_w) / tan(theta)`` (``1 / n`` looking straight down, about 0.63 at 45 degrees,
+    0.49 at 60)."""
+    c = min(max(float(cos_view), 1e-3), 1.0)
+    s = math.sqrt(max(1.0 - c * c, 0.0))
+    if s < 1e-6:
+        return 1.0 / N_WATER
+    c_w = float(refracted_cos(c))
+    return math.sqrt(max(1.0 - c_w * c_w, 0.0)) / c_w * c / s
+
+
+def refract(stack: np.ndarray, depth: np.ndarray, up: np.ndarray, pitch_m: float
+            ) -> np.ndarray:
+    """``stack`` (n, n, c) float32, channels linear in coverage (premultiplied colour,
+    coverage, weight; coverage in channel 3), with every submerged pixel moved to where
+    the surface's refraction shows it: raised by ``(1 - k) d`` (:func:`apparent_depth`)
+    along the world's up as the sprite sees it, ``up`` (3,) (right, up, towards the camera:
+    the world's vertical in the pose's frame). ``depth`` (n, n) float32 is each pixel's
+    metres under the surface (negative above it), ``pitch_m`` metres per sprite pixel.
+    Parts above the water stay where they are, in front of what moves behind them; what
+    the body leaves below is water. Returns ``stack`` itself when nothing moves (looking
+    straight down, or nothing under the water)."""
+    sin_v = math.hypot(float(up[0]), float(up[1]))
+    alpha = stack[..., 3]
+    if sin_v < 0.02 or float(depth.max()) <= 0.0:
+        return stack
+    lift = 1.0 - apparent_depth(math.sqrt(max(1.0 - sin_v * sin_v, 0.0)))
+    # sprite pixels a point moves per metre of depth: (columns, rows), rows run down
+    vx = np.float32(lift * float(up[0]) / pitch_m)
+    vy = np.float32(-lift * float(up[1]) / pitch_m)
+    covered = alpha > 0
+    d = np.where(covered, np.maximum(depth, 0.0), 0.0).astype(np.float32)
+    # the depth carried on past the body's outline (a normalised blur), so that the
+    # search below sees a smooth field: a point that would come from beyond the body
+    # comes from the water
+    sigma = max(depth.shape[0] / 16.0, 1.0)
+    a = covered.astype(np.float32)
+    spread = cv2.GaussianBlur(d * a, (0, 0), sigma) / np.maximum(
+        cv2.GaussianBlur(a, (0, 0), sigma), 1e-4)
+    field = np.where(covered, d, spread).astype(np.float32)
+    n_y, n_x = depth.shape
+    gx, gy = np.meshgrid(np.arange(n_x, dtype=np.float32), np.arange(n_y, dtype=np.float32))
+    mx, my = gx, gy
+    # each pixel shows the point q with q + v d(q) = p: a contraction (|v grad d| < 1),
+    # found by fixed-point steps from q = p
+    for _ in range(4):
+        dq = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        mx = gx - vx * dq
+        my = gy - vy * dq
+    dry = (covered & (depth < 0.0)).astype(np.float32)[..., None]
+    wet = stack * (1.0 - dry)
+    moved = cv2.remap(wet, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=0)
+    if moved.ndim == 2:
+        moved = moved[..., None]
+    front = stack * dry
+    return front + moved * (1.0 - front[..., 3:4])
