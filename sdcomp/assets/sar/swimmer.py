@@ -74,6 +74,10 @@ WET = 0.8
 #: metres an upright swimmer in a life jacket floats higher than without (the jacket's
 #: 70-150 N of buoyancy lifts the shoulders out: ISO 12402)
 VEST_LIFT = 0.08
+#: metres an upright swimmer in a suit floats higher than in swimwear: the foam neoprene's
+#: own buoyancy (a 5 mm full suit displaces some 6-8 litres more than it weighs: 40-60 N,
+#: half a light jacket's) brings the shoulders to the surface; a shorty's, half that
+SUIT_LIFT = {"wetsuit": 0.04, "shorty": 0.02}
 
 
 def _dir(rng: np.random.Generator, v, deg: float = 10.0) -> list[float]:
@@ -275,6 +279,8 @@ def make(params: dict, name: str) -> ColoredMesh:
            "shoulders": shoulders}[pose["water"]]
     # an upright body in a life jacket floats higher: the waterline at the chest
     lift = VEST_LIFT if params["vest"] is not None and pose["water"] == "shoulders" else 0.0
+    if pose["name"] in ("tread", "wave"):  # upright and still: the suit's float shows
+        lift = max(lift, SUIT_LIFT.get(params["outfit"], 0.0))
     waterline = ref + pose["water_offset"] - lift
     if params.get("tube") is not None:
         solid = union([solid, _tube(painter, joints, waterline, params["tube"])])
