@@ -24,7 +24,7 @@ from sdcomp.scene.objects import (
     object_assets,
 )
 from sdcomp.scene.presets import SDS_CLASSES, preset
-from sdcomp.scene.sample import VARIANT_TINT, sample_scene
+from sdcomp.scene.sample import VARIANT_TINT, sample_scene, view_share
 from sdcomp.scene.scene import Role
 
 
@@ -229,6 +229,42 @@ def test_no_two_objects_share_the_water():
                     assert math.hypot(x - x2, y - y2) >= r + r2 - 1e-9, (i, discs)
     assert placed > 1500
     assert footprint_radius("boat-00") > 4 * footprint_radius("swimmer-00")
+
+
+def test_a_narrower_view_holds_fewer_of_the_presets_objects():
+    """The preset's counts are a 4K frame's (``count_view``): a 416 px window at the same
+    focal length (a twelfth of its area) draws about a twelfth as many objects and as much
+    clutter, at least one object drawn; the preset's own frame and a resized one (the same view)
+    keep the counts; a count per image (``count_view`` 0, the default) ignores the view."""
+    frame = GeneratorConfig.from_mapping({**preset("seadronessee"), "clutter": 3.0})
+    window = GeneratorConfig.from_mapping({**preset("seadronessee"), "clutter": 3.0,
+                                           "camera": "custom", "fov": 22.9,
+                                           "sensor_px": [416, 416], "width": 416,
+                                           "height": 416})
+    resized = GeneratorConfig.from_mapping({**preset("seadronessee"), "width": 1920,
+                                            "height": 1080})
+    share = view_share(window, window.camera_model())
+    assert share == pytest.approx((416 / 1452.6) ** 2 / 0.929, rel=0.01)
+    assert view_share(resized, resized.camera_model()) == pytest.approx(1.0, abs=1e-3)
+
+    def counts(config: GeneratorConfig, role: Role) -> np.ndarray:
+        return np.array([sum(p.role is role for p in sample_scene(config, i).placements)
+                         for i in range(300)])
+
+    asked = float(np.mean(frame.count.values))
+    many, few = counts(frame, Role.OBJECT), counts(window, Role.OBJECT)
+    # at least one drawn; a few cannot be placed (no size of theirs fits the view)
+    assert float(np.mean(few == 0)) < 0.15 and few.max() <= 3
+    # rounded at random: the mean is the scaled one, lifted a little by the floor of one
+    assert asked * share <= float(few.mean()) <= asked * share + 0.6
+    assert float(many.mean()) > 0.8 * asked  # (placements the view cannot hold drop out)
+    assert float(counts(window, Role.CLUTTER).mean()) < 0.25 * float(
+        counts(frame, Role.CLUTTER).mean())
+    per_image = GeneratorConfig(count=3, width=416, height=416, seed=4)
+    wide = replace(per_image, camera="custom", fov=120.0, sensor_px=(416, 416))
+    assert per_image.count_view == 0.0 and view_share(wide, wide.camera_model()) == 1.0
+    assert all(sum(p.role is Role.OBJECT for p in sample_scene(c, i).placements) <= 3
+               for c in (per_image, wide) for i in range(20))
 
 
 def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():

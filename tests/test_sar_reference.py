@@ -84,29 +84,29 @@ def _size_ratios(pair) -> tuple[dict, str]:
             table(real, synth))
 
 
-@pytest.mark.parametrize("cls", ["swimmer", "boat"])
+@pytest.mark.parametrize("cls", ["swimmer", "boat", "jetski"])
 def test_box_sizes_per_class(pair, cls):
-    """The classes whose boxes follow SeaDronesSee's within 1.25 times at p10, p50, p90."""
+    """The classes whose boxes follow SeaDronesSee's within 1.25 times at p10, p50, p90
+    (jet skis: 42 boxes in these 200 frames, whose quantiles move by 0.1-0.2 from one
+    sample to the next)."""
     ratio, why = _size_ratios(pair)
     r = ratio[cls][[0, 2, 4]]
     assert np.all((r > 1 / 1.25) & (r < 1.25)), (cls, why)
 
 
 @pytest.mark.xfail(reason="measured here (200 frames, seed 0), p10/p50/p90 over "
-                          "SeaDronesSee's: jetski 1.28/0.82/0.90, life_saving_appliances "
-                          "0.74/0.81/0.97, buoy 1.01/1.99/0.88 (swimmer 0.81/0.97/0.97 and "
-                          "boat 1.22/1.04/1.24 pass above): each object is placed on the row "
-                          "where it shows a box size drawn from its class's, but half of the "
-                          "real buoys' boxes are under 20 px in 4K, sizes that seldom fit the "
-                          "preset's views (farther than its frames reach), so those buoys are "
-                          "drawn again as others; a jet ski's box comes out 0.87 of the size "
-                          "it is placed for (median), a life-saving appliance's 0.83; and the "
-                          "200 frames hold 42 jet skis and 20 appliances, whose quantiles "
-                          "move by 0.1-0.2 from one sample to the next (the appliances "
-                          "measured 0.87/0.85/0.93 in the run before two swimmers took rescue "
-                          "tubes: those swimmers' sizes moved the scenes' later draws)",
-                   strict=False)
-@pytest.mark.parametrize("cls", ["jetski", "life_saving_appliances", "buoy"])
+                          "SeaDronesSee's: life_saving_appliances 0.65/0.76/0.93, buoy "
+                          "0.90/1.46/0.81 (swimmer 0.80/0.96/0.98, boat 1.24/1.01/1.08 and "
+                          "jetski 0.92/0.93/0.92 pass above): each object is placed on the "
+                          "row where it shows a box size drawn from its class's, but half of "
+                          "the real buoys' boxes are under 20 px in 4K, sizes that seldom fit "
+                          "the preset's views (farther than its frames reach), so those buoys "
+                          "are drawn again as others; a life-saving appliance's box comes out "
+                          "0.71 of the size it is placed for (median; 0.77 before the "
+                          "surface's refraction lifted its submerged parts), and the 200 "
+                          "frames hold 21 of them, whose quantiles move by 0.1-0.2 from one "
+                          "sample to the next", strict=False)
+@pytest.mark.parametrize("cls", ["life_saving_appliances", "buoy"])
 def test_box_sizes_per_class_not_yet(pair, cls):
     ratio, why = _size_ratios(pair)
     r = ratio[cls][[0, 2, 4]]

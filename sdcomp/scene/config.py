@@ -160,6 +160,11 @@ class GeneratorConfig:
         "each its own COCO category)", "MESH")
     count: Param = setting("1-3", "param", "objects of interest per image (0 allowed: empty "
                            "images)", "K", 0.0, float(MAX_INSTANCES), "objects", True)
+    count_view: float = setting(0.0, "float", "the view --count and --clutter are for, as "
+                                "an image's area in squared focal lengths, (width / fx) "
+                                "(height / fy): a camera that sees more or less of the water "
+                                "draws proportionally more or fewer objects, at least one "
+                                "(0: per image, whatever the camera)", "A", 0.0, 100.0)
     draft: Param = setting("0-0.05", "param", "how far objects sink below their natural "
                            "waterline, metres (large = fully submerged)", "M", -1.0, 100.0,
                            "m")

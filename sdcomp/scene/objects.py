@@ -174,9 +174,13 @@ def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
 
 
 #: metres: what lies deeper under the waterline than this hardly shows from the air (the
-#: part of a body that counts towards its visible size): about where green coastal water
-#: (``--preset seadronessee``'s) keeps half an object's image, the mask's rule
-VISIBLE_DEPTH = 0.2
+#: part of a body that counts towards its visible size): green coastal water
+#: (``--preset seadronessee``'s) keeps half an object's image 0.2-0.5 m down, the mask's
+#: rule, but the surface's refraction lifts what lies under it to 0.5-0.75 of its depth
+#: and a dark body keeps little contrast under the sky's reflection, so the part that
+#: widens a box ends about a decimetre down (measured: a swimmer's box comes out at 0.99
+#: of the size it is placed for)
+VISIBLE_DEPTH = 0.1
 
 
 def visible_size(asset: str) -> tuple[float, float]:

@@ -4,7 +4,8 @@
   SeaDroneSim's datasets, one BlueROV2 per 416 x 416 image.
 - ``seadronessee``: SeaDronesSee's five classes (:mod:`sdcomp.assets.sar`) with its category
   ids and names, class proportions, altitudes and gimbal pitches (as pairs), objects per
-  image and frame size, over open water (see :data:`SEADRONESSEE`).
+  frame (fewer in a narrower view) and frame size, over open water (see
+  :data:`SEADRONESSEE`).
 """
 
 from __future__ import annotations
@@ -47,6 +48,10 @@ SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7
 # the DJI Mavic 2 Pro's 4K video (most of SeaDronesSee's metadata frames): 28 mm equivalent
 # lens, full sensor width in 16:9, i.e. 65.5 degrees across, 72.8 diagonally (fx = 2987 px)
 SDS_FOV = round(2 * math.degrees(math.atan(math.hypot(18.0, 18.0 * 9 / 16) / 28.0)), 1)
+# the view its counts are for: the 4K frame's area in squared focal lengths, (3840 / fx)
+# (2160 / fy) (a 416 px window at the same focal length holds a twelfth of the objects)
+_SDS_F = math.hypot(3840, 2160) / 2 / math.tan(math.radians(SDS_FOV / 2))
+SDS_VIEW = round(3840 / _SDS_F * 2160 / _SDS_F, 4)
 
 # Where in the frame SeaDronesSee's boxes lie, per class (its 3840 x 2160 metadata frames):
 # the uniform ranges whose 10th and 90th percentiles are the boxes' centres'. The operator
@@ -80,14 +85,15 @@ SDS_SIZES = {
 #: Constance, where it was filmed, near the shore and in summer: Secchi depths of 2.5-6 m,
 #: below the open lake's 6-10 m; a swimmer's body below the shoulders is lost in it), the
 #: ``coastal`` water type at turbidity 0.5-1.0 (chlorophyll 1.4-4 mg/m^3, CDOM 0.14-0.4
-#: /m, sediment 1.4-4 g/m^3: an object keeps half its image 0.2-0.5 m down, about
+#: /m, sediment 1.4-4 g/m^3: an object keeps half its image 0.2-0.5 m down, see
 #: :data:`~sdcomp.scene.objects.VISIBLE_DEPTH`); mostly open, deep water (a sandy
 #: bottom in 10 % of the frames, a shore in 5 %); clutter only of what SeaDronesSee does
-#: not annotate (logs, foam); ignore regions as its category 0 ``ignored``
+#: not annotate (logs, foam); ignore regions as its category 0 ``ignored``. Its objects
+#: per frame are a 4K frame's (``count_view``): a narrower view holds fewer, at least one
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n, "frame": list(SDS_FRAMES[k]),
                  "size": list(SDS_SIZES[k])} for k, n in SDS_CLASSES],
-    "count": list(SDS_COUNT),
+    "count": list(SDS_COUNT), "count_view": SDS_VIEW,
     "altitude": list(SDS_ALTITUDE),
     "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
     "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],

@@ -173,7 +173,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     on another (:func:`~sdcomp.scene.objects.footprint_radius`; foam patches excepted)."""
     placements: list[Placement] = []
     taken: list[tuple[float, float, float]] = []  # (x, y, radius) metres of those placed
-    n_obj = int(config.count.sample(rng))
+    n_obj = _count(rng, config, model)
     weights = [o.weight for o in config.objects]
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
@@ -188,7 +188,8 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
             # looking straight down): another object drawn in its place
         if p is not None:
             placements.append(p)
-    n_clutter = int(rng.poisson(config.clutter)) if config.clutter > 0 else 0
+    n_clutter = int(rng.poisson(config.clutter * view_share(config, model))) \
+        if config.clutter > 0 else 0
     for _ in range(n_clutter):
         kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
         p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0,
@@ -196,6 +197,27 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
         if p is not None:
             placements.append(p)
     return tuple(placements)
+
+
+def view_share(config: GeneratorConfig, model: CameraModel) -> float:
+    """How many of the views that ``config.count`` is for (``count_view``, squared focal
+    lengths) the camera ``model``'s image covers, ``(width / fx) (height / fy)`` over it;
+    1 when the count is per image (``count_view`` 0)."""
+    if config.count_view <= 0:
+        return 1.0
+    return model.width / model.fx * model.height / model.fy / config.count_view
+
+
+def _count(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel) -> int:
+    """The number of objects of interest in one image: ``config.count`` drawn, scaled to
+    the camera's view (:func:`view_share`) and rounded at random (one more draw, only when
+    scaled), at least one when the count drawn is (a narrower view is still aimed at
+    something)."""
+    n = int(config.count.sample(rng))
+    if config.count_view <= 0:
+        return n
+    scaled = int(math.floor(n * view_share(config, model) + rng.random()))
+    return max(scaled, min(n, 1))
 
 
 def _pick_object(rng: np.random.Generator, config: GeneratorConfig,
