@@ -274,36 +274,48 @@ def refract(stack: np.ndarray, depth: np.ndarray, up: np.ndarray, pitch_m: float
     straight down, or nothing under the water)."""
     sin_v = math.hypot(float(up[0]), float(up[1]))
     alpha = stack[..., 3]
-    if sin_v < 0.02 or float(depth.max()) <= 0.0:
+    covered = alpha > 0
+    wet = covered & (depth > 0.0)
+    if sin_v < 0.02 or not wet.any():
         return stack
     lift = 1.0 - apparent_depth(math.sqrt(max(1.0 - sin_v * sin_v, 0.0)))
     # sprite pixels a point moves per metre of depth: (columns, rows), rows run down
-    vx = np.float32(lift * float(up[0]) / pitch_m)
-    vy = np.float32(-lift * float(up[1]) / pitch_m)
-    covered = alpha > 0
-    d = np.where(covered, np.maximum(depth, 0.0), 0.0).astype(np.float32)
+    vx, vy = lift * float(up[0]) / pitch_m, -lift * float(up[1]) / pitch_m
+    reach = math.hypot(vx, vy) * float(depth[wet].max())
+    if reach < 0.25:  # a quarter pixel at most: nothing to see
+        return stack
+    # the work is confined to the submerged part and where it can move to
+    rows, cols = np.flatnonzero(wet.any(axis=1)), np.flatnonzero(wet.any(axis=0))
+    pad = int(math.ceil(reach)) + 1
+    n_y, n_x = depth.shape
+    y0, y1 = max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, n_y)
+    x0, x1 = max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, n_x)
+    box = (slice(y0, y1), slice(x0, x1))
+    cov = covered[box]
+    d = np.where(cov, np.maximum(depth[box], 0.0), 0.0).astype(np.float32)
     # the depth carried on past the body's outline (a normalised blur), so that the
     # search below sees a smooth field: a point that would come from beyond the body
     # comes from the water
-    sigma = max(depth.shape[0] / 16.0, 1.0)
-    a = covered.astype(np.float32)
-    spread = cv2.GaussianBlur(d * a, (0, 0), sigma) / np.maximum(
-        cv2.GaussianBlur(a, (0, 0), sigma), 1e-4)
-    field = np.where(covered, d, spread).astype(np.float32)
-    n_y, n_x = depth.shape
-    gx, gy = np.meshgrid(np.arange(n_x, dtype=np.float32), np.arange(n_y, dtype=np.float32))
+    a = cov.astype(np.float32)
+    sigma = max(n_y / 16.0, 1.0)
+    spread = _wide_blur(d * a, sigma) / np.maximum(_wide_blur(a, sigma), 1e-4)
+    field = np.where(cov, d, spread).astype(np.float32)
+    gx, gy = np.meshgrid(np.arange(x1 - x0, dtype=np.float32),
+                         np.arange(y1 - y0, dtype=np.float32))
     mx, my = gx, gy
     # each pixel shows the point q with q + v d(q) = p: a contraction (|v grad d| < 1),
     # found by fixed-point steps from q = p
-    for _ in range(4):
+    for _ in range(3):
         dq = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        mx = gx - vx * dq
-        my = gy - vy * dq
-    dry = (covered & (depth < 0.0)).astype(np.float32)[..., None]
-    wet = stack * (1.0 - dry)
-    moved = cv2.remap(wet, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=0)
+        mx = gx - np.float32(vx) * dq
+        my = gy - np.float32(vy) * dq
+    part = stack[box]
+    dry = (cov & (depth[box] < 0.0)).astype(np.float32)[..., None]
+    moved = cv2.remap(part * (1.0 - dry), mx, my, cv2.INTER_LINEAR,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     if moved.ndim == 2:
         moved = moved[..., None]
-    front = stack * dry
-    return front + moved * (1.0 - front[..., 3:4])
+    front = part * dry
+    out = stack.copy()
+    out[box] = front + moved * (1.0 - front[..., 3:4])
+    return out
