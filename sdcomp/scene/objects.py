@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import manifold3d as m3
 import numpy as np
 
 from ..assets import clutter, library, sar
@@ -178,20 +179,17 @@ def low_enough(assets: tuple[str, ...], altitude: float) -> tuple[str, ...]:
 #: (``--preset seadronessee``'s) keeps half an object's image 0.2-0.5 m down, the mask's
 #: rule, but the surface's refraction lifts what lies under it to 0.5-0.75 of its depth
 #: and a dark body keeps little contrast under the sky's reflection, so the part that
-#: widens a box ends about a decimetre down (measured: a swimmer's box comes out at 0.99
-#: of the size it is placed for)
+#: widens a box ends about a decimetre down (measured at 1080p: boxes come out at 0.99-1.05
+#: of the size they are placed for, swimmers 1.05, life-saving appliances 0.9)
 VISIBLE_DEPTH = 0.1
 
 
-def visible_size(asset: str) -> tuple[float, float]:
-    """(``across``, ``top``) metres of the part of the object drawn from ``asset`` above
-    :data:`VISIBLE_DEPTH` under its waterline: ``across`` the ``sqrt(w h)`` of the
-    axis-aligned box of its footprint (extents in x and y) averaged over headings (what
-    its box shows from straight above: a boat's hull, a swimmer's head, shoulders and
-    arms), ``top`` its height above the waterline (what an oblique view adds). Built-in
-    objects and mesh files alike; kept once known."""
-    across, top, _ = _sizes(asset.removeprefix(CLUTTER_PREFIX))
-    return across, top
+def visible_hull(asset: str) -> np.ndarray:
+    """(K, 3) float64: the corners of the convex hull of the part of the object drawn from
+    ``asset`` above :data:`VISIBLE_DEPTH` under its waterline, metres in its body frame
+    with z up from the waterline: what its box shows, seen from anywhere (a view's box is
+    the extent of their projections). Kept once known."""
+    return _sizes(asset.removeprefix(CLUTTER_PREFIX))[1]
 
 
 def footprint_radius(asset: str) -> float:
@@ -199,34 +197,43 @@ def footprint_radius(asset: str) -> float:
     water (no other object's disc overlaps it: two bodies do not share the water): the
     mean of its footprint's half length and half beam (its whole mesh, over the sea's
     plane), so a swimmer keeps about half a metre, a 6 m boat two."""
-    return _sizes(asset.removeprefix(CLUTTER_PREFIX))[2]
+    return _sizes(asset.removeprefix(CLUTTER_PREFIX))[0]
 
 
 @functools.cache
-def _sizes(name: str) -> tuple[float, float, float]:
-    """(across, top, radius) metres of mesh ``name`` (:func:`visible_size`,
-    :func:`footprint_radius`)."""
+def _sizes(name: str) -> tuple[float, np.ndarray]:
+    """(radius metres, hull (K, 3)) of mesh ``name`` (:func:`footprint_radius`,
+    :func:`visible_hull`)."""
     parsed = sar.parse_name(name)
     if parsed is None:  # a clutter-only mesh (a log, foam), a built-in or a file
         mesh = clutter.build(name) if name in clutter.KINDS else library.MeshSpec(name).load()
-        top = float(mesh.bounds[1, 2] - mesh.waterline)
     else:  # one build for both: the variant's top is kept for low_enough too
         mesh = sar.build(*parsed)
-        top = sar.top_above_water(*parsed, mesh=mesh)
+        sar.top_above_water(*parsed, mesh=mesh)
     v = mesh.vertices
     half = (v[:, :2].max(axis=0) - v[:, :2].min(axis=0)) / 2.0
-    radius = float(half.mean())
-    up = v[v[:, 2] >= mesh.waterline - VISIBLE_DEPTH]
-    if len(up) == 0:
-        up = v
-    length, beam = up[:, :2].max(axis=0) - up[:, :2].min(axis=0)
-    c, s = np.abs(np.cos(HEADINGS)), np.abs(np.sin(HEADINGS))
-    boxes = (length * c + beam * s) * (length * s + beam * c)
-    return float(np.mean(np.sqrt(np.maximum(boxes, 1e-6)))), max(top, 0.0), radius
+    cut = mesh.waterline - VISIBLE_DEPTH
+    pts = np.concatenate([v[v[:, 2] >= cut], _crossings(v, mesh.faces, cut)])
+    if len(pts) == 0:  # nothing that high: the whole of it
+        pts = v
+    pts = pts - np.array([0.0, 0.0, float(mesh.waterline)])
+    # the hull's corners: all a projection's extent needs (a flat part has no hull: its
+    # points themselves)
+    hull = np.asarray(m3.Manifold.hull_points(pts).to_mesh().vert_properties,
+                      np.float64)[:, :3]
+    return float(half.mean()), hull if len(hull) else pts
 
 
-#: headings (radians) a footprint's box is averaged over (:func:`visible_size`)
-HEADINGS = np.linspace(0.0, math.pi / 2, 10)
+def _crossings(v: np.ndarray, faces: np.ndarray, z: float) -> np.ndarray:
+    """(M, 3) the points where the edges of triangles ``faces`` (F, 3) of vertices ``v``
+    (V, 3) cross the plane at height ``z``: with the vertices above it, the corners of the
+    mesh cut there (a spar's column where it leaves the water)."""
+    a = v[faces]  # (F, 3, 3)
+    b = np.roll(a, -1, axis=1)  # each corner's next: the triangle's edges
+    za, zb = a[..., 2] - z, b[..., 2] - z
+    cross = (za < 0) != (zb < 0)
+    t = za[cross] / (za[cross] - zb[cross])
+    return a[cross] + (b[cross] - a[cross]) * t[:, None]
 
 
 def _top(asset: str) -> float:

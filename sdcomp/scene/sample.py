@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .camera import CameraModel, CameraPose, ground_point, ground_points
+from .camera import CameraModel, CameraPose, camera_basis, ground_point, ground_points
 from .config import GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
@@ -24,7 +24,7 @@ from .objects import (
     low_enough,
     object_assets,
     under_way,
-    visible_size,
+    visible_hull,
 )
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
@@ -280,7 +280,7 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
             q = np.asarray(size, np.float64)
             target = float(np.interp(rng.random(), np.linspace(0.0, 1.0, len(q)), q)) * \
                 model.fx
-        uv = _image_point(model, pose, frame, u0, v0, target, asset)
+        uv = _image_point(model, pose, frame, u0, v0, target, asset, heading)
         if uv is None:  # not at that size in this view: another draw
             continue
         hit = ground_point(model, pose, *uv)
@@ -310,7 +310,8 @@ def _free(x: float, y: float, reach: float, shore: Shore | None,
 
 def _image_point(model: CameraModel, pose: CameraPose,
                  frame: tuple[float, float, float, float] | None, u0: float, v0: float,
-                 target: float | None, asset: str) -> tuple[float, float] | None:
+                 target: float | None, asset: str, heading: float
+                 ) -> tuple[float, float] | None:
     """The pixel (u, v) an object's centre is placed at, from uniform draws ``u0``, ``v0``:
     anywhere in the frame up to :data:`EDGE_MARGIN` outside it (``frame`` None), or in the
     part ``frame``, on the row where ``asset`` shows a box of ``target`` pixels when given
@@ -322,7 +323,8 @@ def _image_point(model: CameraModel, pose: CameraPose,
     v = (frame[1] + (frame[3] - frame[1]) * v0) * model.height
     if target is not None:
         row, fits = _row_for_size(model, pose, u, frame[1] * model.height,
-                                  frame[3] * model.height, target, visible_size(asset), v0)
+                                  frame[3] * model.height, target, visible_hull(asset),
+                                  heading, v0)
         if not fits:
             return None
         v = row
@@ -338,29 +340,49 @@ SIZE_SLACK = 1.15
 
 
 def _row_for_size(model: CameraModel, pose: CameraPose, u: float, v_lo: float, v_hi: float,
-                  target_px: float, size_m: tuple[float, float], pick: float
+                  target_px: float, hull: np.ndarray, heading: float, pick: float
                   ) -> tuple[float, bool]:
-    """(the image row, pixels in [v_lo, v_hi], in column ``u`` at which an object of
-    ``size_m`` = (across, top) metres (:func:`~sdcomp.scene.objects.visible_size`) shows a
-    box of about ``target_px`` pixels; whether it does). Its box ``sqrt(w h)`` at a
-    distance ``d`` seen at an elevation ``e`` is about ``fx / d sqrt(across (across sin e +
-    top cos e))``: the footprint foreshortened, the height seen obliquely. Of the
-    :data:`SIZE_ROWS` rows tried, those within :data:`SIZE_SLACK` of it are kept and
-    ``pick`` (in [0, 1)) chooses among them; where none is (a steep view has nearly one
-    scale: the size cannot be shown there), the nearest, and False (the caller draws
-    again)."""
+    """(the image row, pixels in [v_lo, v_hi], in column ``u`` at which an object whose
+    visible part has the hull corners ``hull`` (K, 3) (:func:`~sdcomp.scene.objects.
+    visible_hull`: metres, body frame, z up from the waterline), turned to ``heading``
+    degrees, shows a box of about ``target_px`` pixels; whether it does). Its box at a
+    row is the extent of the corners projected by the camera's local projection there
+    (the renderer's, linearised at the object): ``sqrt(w h)``. Of the :data:`SIZE_ROWS`
+    rows tried, those within :data:`SIZE_SLACK` of it are kept and ``pick`` (in [0, 1))
+    chooses among them; where none is (a steep view has nearly one scale: the size cannot
+    be shown there), the nearest, and False (the caller draws again)."""
     rows = np.linspace(v_lo, v_hi, SIZE_ROWS)
     pts, hit = ground_points(model, pose, np.full(SIZE_ROWS, u), rows)
-    dist = np.sqrt(pts[:, 0] ** 2 + pts[:, 1] ** 2 + pose.altitude ** 2)
-    sin_e = pose.altitude / dist
-    across, top = size_m
-    side = np.sqrt(across * (across * sin_e + top * np.sqrt(np.maximum(1 - sin_e ** 2, 0))))
-    shown = model.fx * side / dist
+    shown = _box_sides(model, pose, np.where(hit[:, None], pts, 0.0), hull, heading)
     miss = np.where(hit, np.abs(np.log(np.maximum(shown, 1e-9) / target_px)), np.inf)
     near = np.flatnonzero(miss <= math.log(SIZE_SLACK))
     if len(near) == 0:
         return float(rows[int(np.argmin(miss))]), False
     return float(rows[near[min(int(pick * len(near)), len(near) - 1)]]), True
+
+
+def _box_sides(model: CameraModel, pose: CameraPose, at: np.ndarray, hull: np.ndarray,
+               heading: float) -> np.ndarray:
+    """(R,) pixels: ``sqrt(w h)`` of the box of the points ``hull`` (K, 3) (metres, body
+    frame) of an object at heading ``heading`` degrees standing at each of the sea points
+    ``at`` (R, 3) (metres, the point under the camera at the origin), each projected by
+    the camera's Jacobian at its place."""
+    h = math.radians(heading)
+    rot = np.array([[math.cos(h), -math.sin(h), 0.0], [math.sin(h), math.cos(h), 0.0],
+                    [0.0, 0.0, 1.0]])
+    world = hull @ rot.T  # (K, 3) offsets from the object's place
+    basis = camera_basis(pose.pitch, pose.heading)
+    xc = (at - np.array([0.0, 0.0, pose.altitude])) @ basis.T  # (R, 3) camera frame
+    z = np.maximum(xc[:, 2], 1e-6)
+    # d(u, v) / d(camera frame) per row, times the basis: (R, 2, 3) pixels per metre
+    d_cam = np.zeros((len(at), 2, 3))
+    d_cam[:, 0, 0] = model.fx / z
+    d_cam[:, 0, 2] = -model.fx * xc[:, 0] / z ** 2
+    d_cam[:, 1, 1] = model.fy / z
+    d_cam[:, 1, 2] = -model.fy * xc[:, 1] / z ** 2
+    uv = d_cam @ (basis @ world.T)  # (R, 2, K)
+    extent = uv.max(axis=2) - uv.min(axis=2)
+    return np.sqrt(np.maximum(extent[:, 0] * extent[:, 1], 0.0))
 
 
 def _clutter_tint(rng: np.random.Generator) -> tuple[float, float, float]:
