@@ -14,7 +14,7 @@ import pytest
 from sdcomp import GeneratorConfig
 from sdcomp.assets import sar
 from sdcomp.errors import SettingError, UserError
-from sdcomp.scene.config import ObjectSpec
+from sdcomp.scene.config import MAX_INSTANCES, ObjectSpec
 from sdcomp.scene.objects import (
     CLUTTER_KINDS,
     DEFAULT_CLUTTER_KINDS,
@@ -264,6 +264,12 @@ def test_a_narrower_view_holds_fewer_of_the_presets_objects():
     assert float(many.mean()) > 0.8 * asked  # (placements the view cannot hold drop out)
     assert float(counts(window, Role.CLUTTER).mean()) < 0.25 * float(
         counts(frame, Role.CLUTTER).mean())
+    # a view far wider than the count's: at most MAX_INSTANCES objects, clutter bounded
+    wide_view = GeneratorConfig(count=50, count_view=0.01, clutter=50.0, width=416,
+                                height=416)
+    drawn = sample_scene(wide_view, 0).placements
+    assert sum(p.role is Role.OBJECT for p in drawn) == MAX_INSTANCES
+    assert sum(p.role is Role.CLUTTER for p in drawn) < 100
     per_image = GeneratorConfig(count=3, width=416, height=416, seed=4)
     wide = replace(per_image, camera="custom", fov=120.0, sensor_px=(416, 416))
     assert per_image.count_view == 0.0 and view_share(wide, wide.camera_model()) == 1.0

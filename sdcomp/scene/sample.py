@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from .camera import CameraModel, CameraPose, camera_basis, ground_point, ground_points
-from .config import GeneratorConfig
+from .config import MAX_INSTANCES, GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
 from .objects import (
@@ -188,8 +188,8 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
             # looking straight down): another object drawn in its place
         if p is not None:
             placements.append(p)
-    n_clutter = int(rng.poisson(config.clutter * view_share(config, model))) \
-        if config.clutter > 0 else 0
+    n_clutter = int(rng.poisson(min(config.clutter * view_share(config, model),
+                                    MAX_CLUTTER))) if config.clutter > 0 else 0
     for _ in range(n_clutter):
         kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
         p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0,
@@ -197,6 +197,10 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
         if p is not None:
             placements.append(p)
     return tuple(placements)
+
+
+#: the most clutter an image draws on average, however wide its view (--clutter's bound)
+MAX_CLUTTER = 50.0
 
 
 def view_share(config: GeneratorConfig, model: CameraModel) -> float:
@@ -212,12 +216,12 @@ def _count(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     """The number of objects of interest in one image: ``config.count`` drawn, scaled to
     the camera's view (:func:`view_share`) and rounded at random (one more draw, only when
     scaled), at least one when the count drawn is (a narrower view is still aimed at
-    something)."""
+    something), at most :data:`~sdcomp.scene.config.MAX_INSTANCES`."""
     n = int(config.count.sample(rng))
     if config.count_view <= 0:
         return n
     scaled = int(math.floor(n * view_share(config, model) + rng.random()))
-    return max(scaled, min(n, 1))
+    return min(max(scaled, min(n, 1)), MAX_INSTANCES)
 
 
 def _pick_object(rng: np.random.Generator, config: GeneratorConfig,

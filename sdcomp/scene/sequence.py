@@ -25,7 +25,13 @@ import numpy as np
 
 from .camera import CameraModel, CameraPose, ground_point
 from .flight import Flight, FlightState, Wander, draw_flight
-from .sample import EDGE_MARGIN, MAX_DISTANCE_ALTITUDES, sample_scene, view_share
+from .sample import (
+    EDGE_MARGIN,
+    MAX_CLUTTER,
+    MAX_DISTANCE_ALTITUDES,
+    sample_scene,
+    view_share,
+)
 from .scene import Placement, Role, Scene, on_land
 from .video import VideoConfig
 from .water import GRAVITY
@@ -181,7 +187,8 @@ def _extras(rng: np.random.Generator, video: VideoConfig, model: CameraModel, fl
     mean_count = float(np.mean(config.count.values)) * share
     out: list[Track] = []
     n_obj = int(rng.poisson(mean_count * views))
-    n_clutter = int(rng.poisson(config.clutter * share * views)) if config.clutter > 0 else 0
+    n_clutter = int(rng.poisson(min(config.clutter * share, MAX_CLUTTER) * views)) \
+        if config.clutter > 0 else 0
     for k in range(n_obj + n_clutter):
         when = float(rng.uniform(0.0, video.duration))
         donor = sample_scene(config, int(rng.integers(2**31)), model)
