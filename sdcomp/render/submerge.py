@@ -270,8 +270,8 @@ def refract(stack: np.ndarray, depth: np.ndarray, up: np.ndarray, pitch_m: float
     the world's vertical in the pose's frame). ``depth`` (n, n) float32 is each pixel's
     metres under the surface (negative above it), ``pitch_m`` metres per sprite pixel.
     Parts above the water stay where they are, in front of what moves behind them; what
-    the body leaves below is water. Returns ``stack`` itself when nothing moves (looking
-    straight down, or nothing under the water)."""
+    the body leaves below is water. Returns ``stack`` itself when nothing moves by a
+    quarter pixel (looking straight down, nothing under the water, a small sprite)."""
     sin_v = math.hypot(float(up[0]), float(up[1]))
     alpha = stack[..., 3]
     covered = alpha > 0
