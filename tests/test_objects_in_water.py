@@ -335,6 +335,37 @@ def test_contact_foam_spares_the_outline_of_submerged_parts():
     assert cover[beside_limb].max() == 0.0
 
 
+def test_a_body_moving_through_the_water_splashes(gen, monkeypatch):
+    """A body under way breaks the surface at its waterline whatever its size (a swimmer's
+    kicks and strokes): none at rest, more with speed up to SPLASH_SPEED; drawn, the
+    BlueROV2's waterline whitens when it moves (its wake left out), its mask the same."""
+    from sdcomp.render import layers as layers_mod
+    from sdcomp.render.composite import composite
+    from sdcomp.render.layers import SPLASH_PEAK, SPLASH_SPEED, splash_strength
+    from sdcomp.render.lighting import lighting
+
+    assert splash_strength(0.0) == 0.0 == splash_strength(-1.0)
+    assert splash_strength(SPLASH_SPEED) == SPLASH_PEAK == splash_strength(5.0)
+    assert 0 < splash_strength(0.3) < splash_strength(0.6) < SPLASH_PEAK
+    monkeypatch.setattr(layers_mod, "wake_foam", lambda *a: None)
+    water = _water("coastal", 0.3, wind=1.0)
+    light = _light(gen, water)
+    sprites = gen.compositor.assets.sprites
+
+    def draw(speed):
+        s = _scene(gen, [replace(_rov(), speed=speed)], water)
+        image = np.full((gen.model.height, gen.model.width, 3), 60, np.uint8)
+        layers = layers_mod.build_layers(s, lighting(s, light), sprites, foam_onto=image)
+        composite(image, layers, False)
+        return image.astype(int), layers[0]
+
+    still, a = draw(0.0)
+    moving, b = draw(1.0)
+    assert np.array_equal(a.weight, b.weight)
+    brighter = (moving - still).sum(axis=2)
+    assert (brighter >= 0).all() and np.count_nonzero(brighter > 30) > 20
+
+
 def test_foam_never_changes_the_masks(gen):
     """The foam rings are drawn on the background under every object: building the layers
     with or without them gives the same object weights (so the same masks), and the

@@ -41,6 +41,11 @@ RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wav
 #: rides the short waves and makes no contact foam, and from which it makes all of it
 RING_SMALL_M = 0.3
 RING_FULL_M = 1.5
+#: m/s: a body moving through the water at this speed or faster breaks its surface all
+#: round (a swimmer's kicks and strokes, a small craft's spray), whatever its size: its
+#: waterline froths with :data:`SPLASH_PEAK` coverage, slower in proportion
+SPLASH_SPEED = 1.0
+SPLASH_PEAK = 0.35
 
 
 @dataclass
@@ -302,12 +307,15 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
 def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
               pitch_m: float, scene: Scene, lit: Lighting, column: WaterColumn
               ) -> FoamRing | None:
-    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`), lit
-    like the water's surface, placed in the frame; None when there is none."""
+    """The contact foam around placement ``i``'s waterline (:func:`contact_foam`): the
+    waves' froth against a body that stands in their way (:func:`ring_share`), or the
+    splash of one moving through the water (:func:`splash_strength`), whichever is
+    stronger; lit like the water's surface, placed in the frame; None when there is
+    none."""
     dry_m = math.sqrt(float(np.count_nonzero((alpha >= 0.5) & (depth < 0.0)))) * pitch_m
-    ring = contact_foam(alpha, depth, pitch_m,
-                        ring_strength(scene.water.wind) * ring_share(dry_m),
-                        (scene.water.seed, i))
+    strength = max(ring_strength(scene.water.wind) * ring_share(dry_m),
+                   splash_strength(scene.placements[i].speed))
+    ring = contact_foam(alpha, depth, pitch_m, strength, (scene.water.seed, i))
     if ring is None:
         return None
     pad, cover = ring
@@ -325,6 +333,13 @@ def ring_share(dry_m: float) -> float:
     rides them (a swimmer's head, a small buoy): none below :data:`RING_SMALL_M`, all from
     :data:`RING_FULL_M`."""
     return float(np.clip((dry_m - RING_SMALL_M) / (RING_FULL_M - RING_SMALL_M), 0.0, 1.0))
+
+
+def splash_strength(speed: float) -> float:
+    """Peak coverage of the froth a body moving at ``speed`` m/s through the water makes
+    at its waterline (:data:`SPLASH_PEAK` from :data:`SPLASH_SPEED`, in proportion below;
+    none at rest): a crawling swimmer's white water, which a head at rest does not make."""
+    return SPLASH_PEAK * min(max(float(speed), 0.0) / SPLASH_SPEED, 1.0)
 
 
 def foam_colour(lit: Lighting, column: WaterColumn) -> tuple[float, ...]:
