@@ -308,7 +308,7 @@ def test_contact_foam_rings_the_waterline():
 def test_contact_foam_needs_a_body_that_stands_against_the_waves():
     """A head above the water rides the short waves (no froth); a hull a couple of metres
     across makes the full ring; in between, more with size."""
-    from sdcomp.render.layers import RING_FULL_M, RING_SMALL_M, ring_share
+    from sdcomp.render.foam import RING_FULL_M, RING_SMALL_M, ring_share
 
     assert ring_share(0.25) == 0.0 == ring_share(RING_SMALL_M)
     assert ring_share(RING_FULL_M) == 1.0 == ring_share(6.0)
@@ -341,7 +341,7 @@ def test_a_body_moving_through_the_water_splashes(gen, monkeypatch):
     BlueROV2's waterline whitens when it moves (its wake left out), its mask the same."""
     from sdcomp.render import layers as layers_mod
     from sdcomp.render.composite import composite
-    from sdcomp.render.layers import SPLASH_PEAK, SPLASH_SPEED, splash_strength
+    from sdcomp.render.foam import SPLASH_PEAK, SPLASH_SPEED, splash_strength
     from sdcomp.render.lighting import lighting
 
     assert splash_strength(0.0) == 0.0 == splash_strength(-1.0)

@@ -3,8 +3,9 @@
 Small waves break against a floating hull and the water it rocks in froths: from the air a
 floating object is ringed by a thin, broken band of foam a few tens of centimetres wide, whiter
 in wind. Only a body that stands against the short waves makes it (a hull; not a swimmer's
-head or a small buoy, which ride them: :func:`~sdcomp.render.layers.ring_share`). The band
-is drawn on the water (it is not the object: it is never annotated) before
+head or a small buoy, which ride them: :func:`ring_share`), and any body moving through the
+water splashes there, a swimmer's head too (:func:`splash_strength`). The band is drawn on
+the water (it is not the object: it is never annotated) before
 the objects and their shadows, so the objects' coverage hides it (at a hull's edge pixels the
 foam fills the water's part only), shadows darken it, and the masks are unchanged.
 """
@@ -24,6 +25,15 @@ RING_MIN_PX = 0.7  # sprite pixels: narrower bands are not drawn
 FOAM_ALBEDO = 0.6  # of fresh foam (diffuse)
 FOAM_BUBBLES = 0.05  # metres: the size of the foam's patches
 BAND_PIXELS = 1 << 18  # rings are warped and blended in bands of rows of this many pixels
+#: metres across (square root of the area above the water) below which a floating body
+#: rides the short waves and makes no contact foam, and from which it makes all of it
+RING_SMALL_M = 0.3
+RING_FULL_M = 1.5
+#: m/s: a body moving through the water at this speed or faster breaks its surface all
+#: round (a swimmer's kicks and strokes, a small craft's spray), whatever its size: its
+#: waterline froths with :data:`SPLASH_PEAK` coverage, slower in proportion
+SPLASH_SPEED = 1.0
+SPLASH_PEAK = 0.35
 
 
 @dataclass(frozen=True)
@@ -57,6 +67,22 @@ def draw_ring(image: np.ndarray, ring: FoamRing) -> None:
         region = image[a:b, x0:x1]
         out = region.astype(np.float32) * (1.0 - c)[..., None] + c[..., None] * colour
         region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+
+
+def ring_share(dry_m: float) -> float:
+    """The share of the full contact foam (:func:`ring_strength`) that an object whose part
+    above the water is ``dry_m`` metres across (square root of its area) makes: waves break
+    into froth against a body that stands in their way, not against one so small that it
+    rides them (a swimmer's head, a small buoy): none below :data:`RING_SMALL_M`, all from
+    :data:`RING_FULL_M`."""
+    return float(np.clip((dry_m - RING_SMALL_M) / (RING_FULL_M - RING_SMALL_M), 0.0, 1.0))
+
+
+def splash_strength(speed: float) -> float:
+    """Peak coverage of the froth a body moving at ``speed`` m/s through the water makes
+    at its waterline (:data:`SPLASH_PEAK` from :data:`SPLASH_SPEED`, in proportion below;
+    none at rest): a crawling swimmer's white water, which a head at rest does not make."""
+    return SPLASH_PEAK * min(max(float(speed), 0.0) / SPLASH_SPEED, 1.0)
 
 
 def ring_strength(wind: float) -> float:

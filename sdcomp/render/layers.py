@@ -22,7 +22,15 @@ from ..atlas.sprites import SpriteSource
 from ..scene.camera import CameraModel, local_projection
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
-from .foam import FOAM_ALBEDO, FoamRing, contact_foam, draw_ring, ring_strength
+from .foam import (
+    FOAM_ALBEDO,
+    FoamRing,
+    contact_foam,
+    draw_ring,
+    ring_share,
+    ring_strength,
+    splash_strength,
+)
 from .lighting import Lighting, irradiance_terms, lambert
 from .submerge import (
     BLUR_PER_METRE,
@@ -37,15 +45,6 @@ from .wake import place_wake, wake_cover
 from .water.optics import N_WATER
 
 RIPPLE_LENGTH = 0.6  # metres: wavelength of the waves that make a waterline wavy
-#: metres across (square root of the area above the water) below which a floating body
-#: rides the short waves and makes no contact foam, and from which it makes all of it
-RING_SMALL_M = 0.3
-RING_FULL_M = 1.5
-#: m/s: a body moving through the water at this speed or faster breaks its surface all
-#: round (a swimmer's kicks and strokes, a small craft's spray), whatever its size: its
-#: waterline froths with :data:`SPLASH_PEAK` coverage, slower in proportion
-SPLASH_SPEED = 1.0
-SPLASH_PEAK = 0.35
 
 
 @dataclass
@@ -324,22 +323,6 @@ def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
         return None
     affine, roi = placed
     return FoamRing(view.depth, cover, affine, roi, foam_colour(lit, column))
-
-
-def ring_share(dry_m: float) -> float:
-    """The share of the full contact foam (:func:`ring_strength`) that an object whose part
-    above the water is ``dry_m`` metres across (square root of its area) makes: waves break
-    into froth against a body that stands in their way, not against one so small that it
-    rides them (a swimmer's head, a small buoy): none below :data:`RING_SMALL_M`, all from
-    :data:`RING_FULL_M`."""
-    return float(np.clip((dry_m - RING_SMALL_M) / (RING_FULL_M - RING_SMALL_M), 0.0, 1.0))
-
-
-def splash_strength(speed: float) -> float:
-    """Peak coverage of the froth a body moving at ``speed`` m/s through the water makes
-    at its waterline (:data:`SPLASH_PEAK` from :data:`SPLASH_SPEED`, in proportion below;
-    none at rest): a crawling swimmer's white water, which a head at rest does not make."""
-    return SPLASH_PEAK * min(max(float(speed), 0.0) / SPLASH_SPEED, 1.0)
 
 
 def foam_colour(lit: Lighting, column: WaterColumn) -> tuple[float, ...]:
