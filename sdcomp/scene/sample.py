@@ -188,8 +188,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
             # looking straight down): another object drawn in its place
         if p is not None:
             placements.append(p)
-    n_clutter = int(rng.poisson(min(config.clutter * view_share(config, model),
-                                    MAX_CLUTTER))) if config.clutter > 0 else 0
+    n_clutter = int(rng.poisson(clutter_mean(config, model))) if config.clutter > 0 else 0
     for _ in range(n_clutter):
         kind = config.clutter_kinds[int(rng.integers(len(config.clutter_kinds)))]
         p = _place(rng, config, model, pose, shore, Role.CLUTTER, clutter_assets(kind), 0,
@@ -210,6 +209,11 @@ def view_share(config: GeneratorConfig, model: CameraModel) -> float:
     if config.count_view <= 0:
         return 1.0
     return model.width / model.fx * model.height / model.fy / config.count_view
+
+
+def clutter_mean(config: GeneratorConfig, model: CameraModel) -> float:
+    """Mean clutter per image of ``model``: scaled by :func:`view_share`, capped."""
+    return min(config.clutter * view_share(config, model), MAX_CLUTTER)
 
 
 def _count(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel) -> int:

@@ -27,8 +27,8 @@ from .camera import CameraModel, CameraPose, ground_point
 from .flight import Flight, FlightState, Wander, draw_flight
 from .sample import (
     EDGE_MARGIN,
-    MAX_CLUTTER,
     MAX_DISTANCE_ALTITUDES,
+    clutter_mean,
     sample_scene,
     view_share,
 )
@@ -183,11 +183,10 @@ def _extras(rng: np.random.Generator, video: VideoConfig, model: CameraModel, fl
     swept = float(np.sum(np.hypot(np.diff(st.x), np.diff(st.y))))
     along = still.camera.altitude * model.height / model.fy
     views = swept / max(along, 1e-6)
-    share = view_share(config, model)
-    mean_count = float(np.mean(config.count.values)) * share
+    mean_count = float(np.mean(config.count.values)) * view_share(config, model)
     out: list[Track] = []
     n_obj = int(rng.poisson(mean_count * views))
-    n_clutter = int(rng.poisson(min(config.clutter * share, MAX_CLUTTER) * views)) \
+    n_clutter = int(rng.poisson(clutter_mean(config, model) * views)) \
         if config.clutter > 0 else 0
     for k in range(n_obj + n_clutter):
         when = float(rng.uniform(0.0, video.duration))
