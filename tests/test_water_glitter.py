@@ -232,3 +232,23 @@ def test_mean_glint_is_the_expected_clipped_glitter(lam, base, q):
     got = float(glitter.expected_clipped(np.array([lam]), np.array([base]),
                                          np.array([q]))[0])
     assert got == pytest.approx(want, rel=0.03, abs=2e-4)
+
+
+def test_at_most_one_sparkle_per_facet():
+    """saturate_rows turns a pixel's expected count lam into N (1 - exp(-lam / N)) for its
+    row's N facets, in glint-table row units, as the float64 formula does to within 1e-4
+    row (the series below SATURATE_SERIES, the exact form above)."""
+    rows = np.linspace(-40.0, 80.0, 2401, dtype=np.float32)  # ln lam from -19 to 11
+    e = np.tile(rows, (4, 1))
+    ln_n = np.log(np.array([[1.0], [30.0], [1e3], [1e5]], np.float32))
+    lam = np.exp(e.astype(np.float64) * GLINT_LN_STEP + GLINT_LN0)
+    n = np.exp(ln_n.astype(np.float64))
+    want = (np.log(n * -np.expm1(-lam / n)) - GLINT_LN0) / GLINT_LN_STEP
+    got = e.copy()
+    glitter.saturate_rows(got, ln_n)
+    assert np.abs(got - want).max() < 1e-4
+    x = lam / n
+    assert x.min() < 1e-6 and x.max() > 1e3  # both forms and the saturated end are tested
+    assert np.all(got <= e + 1e-5)  # saturation only ever lowers the count
+    cap = np.broadcast_to((ln_n - GLINT_LN0) / GLINT_LN_STEP, e.shape)  # one per facet
+    assert np.abs(got - cap)[x > 100].max() < 1e-3
