@@ -96,3 +96,23 @@ def test_unsharp_mask_overshoots_an_edge():
     assert row[:10].tolist() == [60] * 10 and row[-10:].tolist() == [180] * 10  # flat: same
     assert row.min() < 60 and row.max() > 180  # halos on both sides of the step
     assert np.array_equal(C.unsharp(img, 0.0, 1.2), img)
+
+
+def test_deblocking_in_place_and_the_smoothing_rounds_half_to_even():
+    """``in_place`` filters the given array with the same bytes as a copy; the boundary
+    pixels' [1, 2, 1] / 4 smoothing rounds half to even, as float arithmetic does, for every
+    pair of a uint16 sum p1 + q0 and a uint8 p0."""
+    rng = np.random.default_rng(11)
+    for h, w in ((64, 64), (37, 53), (8, 100), (101, 9)):
+        img = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        want = C.deblock(img, 0.6)
+        work = img.copy()
+        assert C.deblock(work, 0.6, in_place=True) is work
+        assert np.array_equal(work, want) and not np.array_equal(want, img)
+    # every uint16 sum p1 + q0 with every p0; s = 1 leaves p0 at the smoothing itself
+    p1q0, p0 = np.meshgrid(np.arange(511), np.arange(256))
+    p1 = np.minimum(p1q0, 255).astype(np.uint8)
+    q0 = (p1q0 - p1).astype(np.uint8)
+    moved = p0.astype(np.uint8)
+    C._smooth_pairs(p1, moved, q0.copy(), np.zeros_like(p1), 1.0)
+    assert np.array_equal(moved, np.round((p1q0 + 2 * p0) / 4.0))  # numpy: half to even
