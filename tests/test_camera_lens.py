@@ -192,14 +192,31 @@ def test_streamed_lens_gives_the_cached_maps_pixels(monkeypatch, ca):
     got = {}
     for name, limit in (("full", 1 << 40), ("streamed", 0)):
         monkeypatch.setattr(L, "STREAM_PIXELS", limit)
-        L._MAP_CACHE.clear()
+        L.clear_caches()
         lens = L.lens_maps(w, h, 0.8 * w, 0.8 * w, -0.04, 0.01, *ca)
         assert lens.streamed == (name == "streamed")
         got[name] = (R.remap_image(img, lens), R.remap_labels(lab, lens),
                      R.remap_labels(lab, lens, window=False), R.vignette(img, lens, 0.4))
-    L._MAP_CACHE.clear()
+    L.clear_caches()
     assert lens.maps is None and lens.nearest is None and lens.field_r2 is None
     assert lens.nbytes < w * h  # the grid only
     for a, b in zip(got["full"], got["streamed"], strict=True):
         assert np.array_equal(a, b)
     assert not np.array_equal(got["full"][0], img)  # the lens did move the pixels
+
+
+def test_full_maps_rebuilt_from_the_cached_grid_are_the_same():
+    """A lens whose full maps fell out of their cache is rebuilt from its cached grid (the
+    zoom's bisection is not redone) with the same bytes as a lens built from nothing."""
+    args = (1000, 700, 800.0, 800.0, -0.03, 0.01, 0.0004, -0.0002)
+    L.clear_caches()
+    cold = L.lens_maps(*args)
+    L._MAP_CACHE.clear()
+    warm = L.lens_maps(*args)
+    assert warm is not cold and warm.grid is cold.grid
+    for a, b in zip(cold.maps, warm.maps, strict=True):
+        assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert np.array_equal(cold.nearest, warm.nearest)
+    assert np.array_equal(cold.field_r2, warm.field_r2)
+    L.clear_caches()
+    assert L.lens_maps(*args).grid is not cold.grid

@@ -58,8 +58,7 @@ def test_same_look_same_bytes(preset, w, h):
     look = replace(sample_look(preset, np.random.default_rng(9), w, h), native_width=w,
                    native_height=h, motion_px=6.0)
     a = apply_camera(img, ins, look, tile)
-    L._MAP_CACHE.clear()
-    L._FALLOFF_CACHE.clear()
+    L.clear_caches()
     b = apply_camera(img.copy(), ins.copy(), CameraLook.from_dict(json.loads(look.to_json())),
                      tile.copy())
     assert a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()

@@ -240,6 +240,38 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     if hit is not None:
         _MAP_CACHE.move_to_end(key)
         return hit
+    out = _lens_grid(key)
+    if w * h <= STREAM_PIXELS:
+        grid = out.grid
+        maps, green = [], len(grid.src) // 2
+        for c in range(len(grid.src)):  # the green points make the nearest map too
+            points = grid.points(c, 0, 0, w, h)
+            maps.append(cv2.convertMaps(*points, cv2.CV_16SC2))
+            if c == green:
+                nearest = cv2.convertMaps(*points, cv2.CV_16SC2, nninterpolation=True)[0]
+        out = replace(out, maps=tuple(maps), nearest=nearest, field_r2=grid.full(grid.r2))
+    _MAP_CACHE[key] = out
+    total = sum(v.nbytes for v in _MAP_CACHE.values())
+    while total > MAP_CACHE_BYTES and len(_MAP_CACHE) > 1:
+        _, old = _MAP_CACHE.popitem(last=False)
+        total -= old.nbytes
+    return out
+
+
+_GRID_CACHE: OrderedDict = OrderedDict()
+GRID_CACHE_BYTES = 64 << 20  # lens grids kept up to this (a 1920 x 1080 frame's: 1 MB)
+
+
+def _lens_grid(key: tuple) -> LensMaps:
+    """The streamed :class:`LensMaps` (grid, zoom, largest shift; no full-frame maps) of a
+    :func:`lens_maps` key. Cached apart from the full maps (an LRU
+    up to :data:`GRID_CACHE_BYTES`): a frame whose full maps fell out of their cache
+    rebuilds those only (the zoom's bisection alone takes 20 ms at 1920 x 1080)."""
+    hit = _GRID_CACHE.get(key)
+    if hit is not None:
+        _GRID_CACHE.move_to_end(key)
+        return hit
+    w, h, fx, fy, k1, k2, ca_red, ca_blue = key
     cas = (ca_red, 0.0, ca_blue) if (ca_red or ca_blue) else (0.0,)
     zoom = lens_zoom(w, h, fx, fy, k1, k2, cas)
     step = MAP_GRID if max(w, h) > MAP_GRID_MIN else 1
@@ -261,16 +293,19 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     shift = float(np.sqrt((sx - gx) ** 2 + (sy - gy) ** 2).max())
     grid = LensGrid(w, h, step, tuple(src), r2)
     out = LensMaps(grid, zoom, shift, (w, h, fx, fy, k1, k2))
-    if w * h <= STREAM_PIXELS:
-        maps = tuple(grid.source(c, 0, 0, w, h) for c in range(len(src)))
-        out = replace(out, maps=maps, nearest=grid.nearest(0, 0, w, h),
-                      field_r2=grid.full(r2))
-    _MAP_CACHE[key] = out
-    total = sum(v.nbytes for v in _MAP_CACHE.values())
-    while total > MAP_CACHE_BYTES and len(_MAP_CACHE) > 1:
-        _, old = _MAP_CACHE.popitem(last=False)
+    _GRID_CACHE[key] = out
+    total = sum(v.nbytes for v in _GRID_CACHE.values())
+    while total > GRID_CACHE_BYTES and len(_GRID_CACHE) > 1:
+        _, old = _GRID_CACHE.popitem(last=False)
         total -= old.nbytes
     return out
+
+
+def clear_caches() -> None:
+    """Forget every cached lens: full maps, grids and vignetting fall-offs."""
+    _MAP_CACHE.clear()
+    _GRID_CACHE.clear()
+    _FALLOFF_CACHE.clear()
 
 
 def vignette_gain(field_r2: np.ndarray, strength: float) -> np.ndarray:
