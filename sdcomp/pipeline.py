@@ -53,6 +53,7 @@ from .scene.objects import (
 )
 from .scene.sample import sample_scene
 from .scene.scene import FeatureSeeds, Role, Scene
+from .util.heap import keep_freed_memory
 from .util.progress import Progress
 
 DEFAULT_SPRITES = None  # the user's atlas folder: see sdcomp.atlas.cache.sprites_folder
@@ -92,6 +93,7 @@ class Generator:
 
     def __init__(self, config: GeneratorConfig, sprites_dir: str | Path | None = DEFAULT_SPRITES,
                  progress: bool | None = None, build_workers: int | None = None):
+        keep_freed_memory()  # frames' temporaries reused, not faulted in again
         self.config = config
         self.model = config.camera_model()
         sprites = _all_sprites(config, sprites_folder(sprites_dir), progress, build_workers)
