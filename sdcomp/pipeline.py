@@ -48,6 +48,7 @@ from .scene.objects import (
     CLUTTER_PREFIX,
     clutter_assets,
     clutter_mesh_name,
+    measure_all,
     object_assets,
     object_kind,
 )
@@ -106,12 +107,14 @@ class Generator:
         self.names = {c["id"]: c["name"] for c in config.categories}
 
     def warm(self) -> None:
-        """Build every water tile (:meth:`WaterTextures.build_all`, 1.3 s) and prepare the
-        sprites' small mip levels (:meth:`SpriteSource.warm`, 0.2 s) now: call it before
-        forking workers, which then inherit them. Frames wider or higher than
-        :data:`WARM_MAX_SIDE` pixels draw their objects from the large levels: for them the
-        sprites are not prepared."""
+        """Build every water tile (:meth:`WaterTextures.build_all`, 1.3 s), measure every
+        object's footprint and visible hull (:func:`~sdcomp.scene.objects.measure_all`, 0.8
+        s for the default's 25 meshes) and prepare the sprites' small mip levels
+        (:meth:`SpriteSource.warm`, 0.2 s) now: call it before forking workers, which then
+        inherit them. Frames wider or higher than :data:`WARM_MAX_SIDE` pixels draw their
+        objects from the large levels: for them the sprites are not prepared."""
         self.compositor.assets.textures.water.build_all()
+        measure_all(self.compositor.assets.sprites)
         if max(self.model.width, self.model.height) > WARM_MAX_SIDE:
             return
         for src in self.compositor.assets.sprites.values():

@@ -24,6 +24,7 @@ from sdcomp.assets.mesh import ColoredMesh
 from sdcomp.pipeline import Generator
 from sdcomp.render import effects
 from sdcomp.render.ground import perspective_sample
+from sdcomp.scene import objects
 from sdcomp.scene.camera import CameraPose
 from sdcomp.scene.config import GeneratorConfig, ObjectSpec
 from sdcomp.scene.look_table import clean_look
@@ -609,10 +610,10 @@ def test_sprite_levels_are_box_filters_of_the_atlas(rov):
 
 def test_warm_prepares_everything_a_416_frame_uses(sprites_dir):
     """After Generator.warm(), rendering default 416 px images (objects and clutter) adds
-    nothing to the sprite caches, so forked workers share what the parent prepared; the
+    nothing to the sprite caches and builds no mesh to measure (every object's footprint
+    and visible hull are known), so forked workers share what the parent prepared; the
     pixels are the same as without it."""
     config = GeneratorConfig(seed=3)
-    cold = Generator(config, sprites_dir)
     warm = Generator(config, sprites_dir)
     warm.warm()
     sources = list(warm.compositor.assets.sprites.values())
@@ -621,11 +622,15 @@ def test_warm_prepares_everything_a_416_frame_uses(sprites_dir):
     def entries() -> int:
         return sum(s.cached() for s in sources)
 
-    before = entries()
-    for i in range(40):
-        a, b = warm.render(i), cold.render(i)
-        assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
+    before, measured = entries(), objects._sizes.cache_info()
+    assert measured.currsize >= len(sources) - 1  # all but foam
+    images = [warm.render(i) for i in range(40)]
     assert entries() == before
+    assert objects._sizes.cache_info().misses == measured.misses
+    cold = Generator(config, sprites_dir)
+    for i, a in enumerate(images):
+        b = cold.render(i)
+        assert np.array_equal(a.image, b.image) and np.array_equal(a.instances, b.instances)
 
 
 # --------------------------------------------------------------------------- oblique textures

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -198,6 +199,15 @@ def footprint_radius(asset: str) -> float:
     mean of its footprint's half length and half beam (its whole mesh, over the sea's
     plane), so a swimmer keeps about half a metre, a 6 m boat two."""
     return _sizes(asset.removeprefix(CLUTTER_PREFIX))[0]
+
+
+def measure_all(assets: Iterable[str]) -> None:
+    """Work out the footprint, visible hull and top of every one of ``assets`` now (each
+    builds its mesh once: 25-50 ms): call it before forking workers, which then inherit
+    them instead of each building them in its first images."""
+    for asset in assets:
+        if asset.removeprefix(CLUTTER_PREFIX) != "foam":  # foam keeps no disc, no size
+            footprint_radius(asset)
 
 
 @functools.cache
