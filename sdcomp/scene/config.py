@@ -47,10 +47,10 @@ MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 d
 #: (with a warning), the value is not used
 RETIRED = {
     "ambient": "the sky model sets the light from the sky",
-    "white_balance": "--look draws the white balance per image",
+    "white_balance": "--wb-red and --wb-blue set it (--look draws it by default)",
     "noise": "--look draws the sensor noise per image",
     "vignetting": "--look draws the vignetting per image",
-    "exposure": "the camera exposes automatically; --look draws its bias per image",
+    "exposure": "the camera exposes automatically; --exposure-bias sets its bias",
     "rocks": "the sea floor is sand (--shallow, --floor-depth)",
 }
 
@@ -189,8 +189,14 @@ class GeneratorConfig:
     look: str = setting("auto", "custom", "camera look (lens, exposure, colour, noise, "
                         "sharpening, compression, each drawn per image): mavic2pro, "
                         "phantom4pro, zenmuse-x5, clean (none), or auto (that of --camera; "
-                        "clean over --backgrounds)",
-                        "NAME")
+                        "clean over --backgrounds)", "NAME")
+    exposure_bias: Param | None = setting(None, "param", "exposure bias over the auto "
+                                          "exposure, stops, per image (e.g. =-1:0.5); unset: "
+                                          "--look's draw", "EV", -4.0, 4.0, "stops")
+    wb_red: Param | None = setting(None, "param", "white balance gain of red (linear, 1 "
+                                   "neutral) per image; unset: --look's draw", "GAIN", 0.2, 5.0)
+    wb_blue: Param | None = setting(None, "param", "white balance gain of blue, as --wb-red",
+                                    "GAIN", 0.2, 5.0)
     recording: str = setting("video", "custom", "what the camera records: video (4K H.264/"
                              "H.265 frames) or photo (full-resolution JPEG)", "video|photo")
     motion_blur: float = setting(0.5, "float", "probability of motion blur along the flight",

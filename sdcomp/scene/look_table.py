@@ -8,6 +8,7 @@ help text, and a :class:`Range` per preset (key ``*``: every camera preset witho
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,6 +22,7 @@ from .look import (
     quality_for_bpp,
     video_bpp,
 )
+from .params import Param
 
 
 @dataclass(frozen=True)
@@ -211,7 +213,8 @@ def _draw(spec: LookParam, rng_: Range, rng: np.random.Generator):
 
 def sample_look(preset: str, rng: np.random.Generator, out_w: int, out_h: int, *,
                 recording: str = "video", fx: float | None = None,
-                fy: float | None = None, motion: float | None = None) -> CameraLook:
+                fy: float | None = None, motion: float | None = None,
+                overrides: Mapping[str, Param | None] | None = None) -> CameraLook:
     """Draw the camera look of one image.
 
     Args:
@@ -223,6 +226,9 @@ def sample_look(preset: str, rng: np.random.Generator, out_w: int, out_h: int, *
         fx, fy: focal lengths of the rendered image, output pixels (the renderer's camera);
             default: the preset's field of view with its recording resized to the output.
         motion: probability of motion blur (default: the preset's).
+        overrides: parameters drawn from the user's :class:`Param` (a value, a uniform
+            range or a list) instead of the preset's range, whatever the preset (None:
+            the preset's); the same uniforms are consumed.
 
     Returns:
         A :class:`CameraLook`; ``jpeg_quality`` of a video is derived from its bits per
@@ -241,6 +247,10 @@ def sample_look(preset: str, rng: np.random.Generator, out_w: int, out_h: int, *
     ranges = {name: spec.range_for(preset) for name, spec in PARAMS.items()}
     if motion is not None and preset != "clean":
         ranges["motion_px"] = replace(ranges["motion_px"], p_off=1.0 - float(motion))
+    for name, param in (overrides or {}).items():
+        if param is not None:
+            ranges[name] = (Range(dist="choice", choices=param.choices) if param.choices
+                            else Range(param.lo, param.hi))
     values = {name: _draw(spec, ranges[name], rng) for name, spec in PARAMS.items()}
     if preset != "clean":
         if recording == "photo":

@@ -32,6 +32,7 @@ from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 MAX_DISTANCE_ALTITUDES = 12.0  # objects are placed at most this many altitudes away
 EDGE_MARGIN = 0.02  # object centres may lie this fraction of the frame size outside it
 VARIANT_TINT = (0.85, 1.15, 0.05)  # a variant object's albedo gain range, channel jitter
+MAX_CLUTTER = 50.0  # the most clutter an image draws on average (--clutter's bound)
 
 
 def scene_rng(seed: int, index: int) -> np.random.Generator:
@@ -67,7 +68,9 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
                          config, _placements(rng, config, model, pose, shore))
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
-                       motion=config.motion_blur)
+                       motion=config.motion_blur, overrides={
+                           "exposure_ev": config.exposure_bias, "wb_red": config.wb_red,
+                           "wb_blue": config.wb_blue})
     water, look = expose(water, look)
     scale = max(model.width, model.height) / 416.0
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
@@ -196,10 +199,6 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
         if p is not None:
             placements.append(p)
     return tuple(placements)
-
-
-#: the most clutter an image draws on average, however wide its view (--clutter's bound)
-MAX_CLUTTER = 50.0
 
 
 def view_share(config: GeneratorConfig, model: CameraModel) -> float:

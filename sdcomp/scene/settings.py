@@ -33,7 +33,7 @@ class Setting:
     ``kind``: "param" (a :class:`Param`: a value, range or list drawn per image), "float",
     "int", "bool", "path" (a file or folder path, or None) or "custom"; ``lo``/``hi``:
     inclusive bounds; ``unit``: shown after numbers; ``integer``: whole-number params;
-    ``metavar``, ``help``: the command line's."""
+    ``optional``: None is a value (unset); ``metavar``, ``help``: the command line's."""
 
     kind: str
     help: str
@@ -42,10 +42,13 @@ class Setting:
     hi: float = math.inf
     unit: str = ""
     integer: bool = False
+    optional: bool = False
 
     def check(self, name: str, value: Any) -> Any:
         """``value`` checked and normalised for the field ``name``; SettingError when bad.
         Custom settings are returned as they are."""
+        if value is None and self.optional:
+            return None
         if self.kind == "param":
             v = value.to_json() if isinstance(value, Param) else value
             return parse_param(v, name, self.lo, self.hi, self.unit, self.integer)
@@ -64,10 +67,11 @@ class Setting:
 
 def setting(default: Any, kind: str, help: str, metavar: str = "", lo: float = -math.inf,
             hi: float = math.inf, unit: str = "", integer: bool = False) -> Any:
-    """A dataclass field with ``default`` and its :class:`Setting` in the metadata."""
+    """A dataclass field with ``default`` and its :class:`Setting` in the metadata (a
+    default of None makes the setting optional: None stays None)."""
     assert kind in KINDS, kind
     return dataclasses.field(default=default, metadata={
-        "setting": Setting(kind, help, metavar, lo, hi, unit, integer)})
+        "setting": Setting(kind, help, metavar, lo, hi, unit, integer, default is None)})
 
 
 def setting_of(field: dataclasses.Field) -> Setting:
