@@ -30,7 +30,7 @@ from sdcomp.fitting import fit_footage
 from sdcomp.fitting.config_file import config_text, write_config
 from sdcomp.fitting.footage import working_size
 from sdcomp.fitting.report import markdown
-from sdcomp.fitting.search import Renderer, invert_water
+from sdcomp.fitting.search import CANDIDATES, Renderer, invert_water
 from sdcomp.fitting.stats import STATS, blockiness, distance, image_stats, loss, vignetting
 from sdcomp.pipeline import Generator
 from sdcomp.run.record import encode_image
@@ -127,6 +127,36 @@ def test_standin_from_another_camera_is_closer_than_defaults(tmp_path, sprites_d
     text = markdown(r, "fitted.toml", None)  # the report names what was not reached
     assert all(k in text.split("Not reached")[1].split("\n")[0] for k in missed) if missed \
         else "at least as close" in text
+
+
+def green_cast(rgb: np.ndarray) -> np.ndarray:
+    """docs/fit.md's tinted stand-in: a green cast with lifted blacks (R x 0.55 + 10, G x
+    0.75 + 35, B x 0.6 + 20), a white balance no water colour makes."""
+    x = rgb.astype(np.float32) * np.float32([0.55, 0.75, 0.6]) + np.float32([10, 35, 20])
+    return np.clip(x, 0, 255).astype(np.uint8)
+
+
+def test_white_balance_and_exposure_fit_a_colour_cast(tmp_path, sprites_dir):
+    """A cast no water explains is fitted by the camera's white balance (red and blue gains
+    under 1 for a green cast) and exposure bias: the loss falls to under half what the
+    search reaches without those settings, and the saturation is reached."""
+    make_footage(tmp_path / "cast", {"water": ["coastal", "lake"], "wind": "2-6"},
+                 sprites_dir, post=green_cast)
+    without = tuple(g for g in CANDIDATES if g not in ("exposure", "wb_red", "wb_blue"))
+    runs = {name: fit_footage(tmp_path / "cast", sprites_dir=sprites_dir, n_render=RENDERS,
+                              passes=1, groups=groups)
+            for name, groups in (("with", None), ("without", without))}
+    foot = runs["with"].footage.summary
+    losses = {k: loss(r.search.summary, foot) for k, r in runs.items()}
+    assert losses["with"] < 0.5 * losses["without"], losses
+    c = runs["with"].config
+    assert c.wb_red is not None and _high(c.wb_red) < 1.0, c.to_dict()
+    assert c.wb_blue is not None and _high(c.wb_blue) < 1.0, c.to_dict()
+    d = distance(runs["with"].search.summary, foot)
+    d_dflt = distance(runs["with"].search.default_summary, foot)
+    assert d["saturation"] < d_dflt["saturation"] and d["chroma_r"] < 3, d
+    text = config_text(c, ["test"], False)
+    assert "wb_red = " in text and write_config(tmp_path / "cast.toml", text) == c
 
 
 # --------------------------------------------------------------------------- the statistics

@@ -23,6 +23,9 @@ KEYS: tuple[tuple[str, str], ...] = (
     ("sky", "skies drawn per image"),
     ("sun_elevation", "degrees: brightness and glitter"),
     ("look", "camera look preset: noise, sharpness, tone, vignetting"),
+    ("exposure_bias", "stops over the auto exposure (brightness); unset: the look's draws"),
+    ("wb_red", "white balance gains (colour cast); unset: the look's draws"),
+    ("wb_blue", ""),
     ("recording", "video (H.264/H.265 frames) or photo (JPEG)"),
     ("jpeg_quality", "compression of the written files (blockiness)"),
     ("motion_blur", "probability of motion blur (sharpness)"),
@@ -40,7 +43,10 @@ def config_text(config: GeneratorConfig, header: list[str], geometry_fitted: boo
             continue
         if comment:
             lines.append(f"# {comment}")
-        lines.append(f"{key} = {toml_value(values[key])}")
+        if values[key] is None:  # unset: TOML has no null
+            lines.append(f"# {key} = (unset)")
+        else:
+            lines.append(f"{key} = {toml_value(values[key])}")
     return "\n".join(lines) + "\n"
 
 

@@ -101,6 +101,8 @@ def _reach_text(missed: list[str], far: list[str]) -> str:
 
 def _value(config: GeneratorConfig, key: str) -> str:
     v = config.to_dict()[key]
+    if v is None:
+        return "unset (the look's draws)"
     return ", ".join(map(str, v)) if isinstance(v, list) else str(v)
 
 

@@ -8,8 +8,9 @@ Two steps, repeated once the camera is known:
    steps of 0.05) is looked up with each frame's water colour; the types that explain at
    least :data:`TYPE_SHARE` of the frames are kept, and the turbidity range covers the
    10th to 90th percentile of their frames' turbidities;
-2. a coordinate search over candidate values of the other settings (the camera's look and
-   recording, JPEG quality, sky, sun elevation, wind, motion and defocus blur): each
+2. a coordinate search over candidate values of the other settings (the camera's look,
+   exposure bias, white balance and recording, JPEG quality, sky, sun elevation, wind,
+   motion and defocus blur): each
    candidate config renders the same ``n_render`` water-only frames (seeded, no objects)
    and the candidate whose statistics' :func:`~.stats.loss` to the footage's is lowest is
    kept.
@@ -42,6 +43,11 @@ CANDIDATES: dict[str, list[dict]] = {
     "sun_elevation": [{"sun_elevation": v} for v in ("25-80", "10-35", "30-60", "55-85")],
     "wind": [{"wind": v} for v in ("1-8", "0-2", "1-4", "3-7", "6-11", "10-16")],
     "look": [{"look": v} for v in ("auto", "phantom4pro", "zenmuse-x5", "clean")],
+    # the camera's exposure bias and white balance: unset (the look's own draws) or fixed
+    "exposure": [{"exposure_bias": v} for v in (None, "-1.5:-0.9", "-0.9:-0.3", "-0.3:0.3",
+                                                 "0.3:0.9", "0.9:1.5")],
+    "wb_red": [{"wb_red": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
+    "wb_blue": [{"wb_blue": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
     "recording": [{"recording": v} for v in ("video", "photo")],
     "jpeg_quality": [{"jpeg_quality": v} for v in ("90-95", "75-90", "50-75", "96-100")],
     "blur": [{"motion_blur": m, "defocus_blur": d}
