@@ -230,8 +230,8 @@ def saturate_rows(e: np.ndarray, ln_n: np.ndarray) -> None:
     facet count of each row. The expected count becomes ``N (1 - exp(-lam / N))``, i.e.
     ``ln lam`` grows by ``ln((1 - exp(-x)) / x)`` with ``x = lam / N``: from its series
     ``-x/2 + x^2/24 - x^4/2880`` below :data:`SATURATE_SERIES` (relative error < 1e-9),
-    exactly on the (few) pixels above. float32 ``expm1`` has no vector path in NumPy (20x
-    the cost of ``exp``), so it runs on those pixels only."""
+    exactly on the pixels above, by OpenCV's exp and log (NumPy's float32 ``expm1`` and
+    ``log`` have no vector path: 20x the cost)."""
     u = e * np.float32(GLINT_LN_STEP)
     u += np.float32(GLINT_LN0) - ln_n  # ln x
     x = cv2.exp(u)
@@ -242,9 +242,10 @@ def saturate_rows(e: np.ndarray, ln_n: np.ndarray) -> None:
     c -= np.float32(0.5)
     c *= x  # ln((1 - exp(-x)) / x), x small
     big = np.flatnonzero(x >= np.float32(SATURATE_SERIES))
-    if big.size:
-        xb = x.ravel()[big]
-        c.ravel()[big] = np.log(-np.expm1(-xb)) - u.ravel()[big]
+    if big.size:  # 1 - exp(-x) loses nothing in float32 here (x >= 0.1)
+        one = cv2.exp(x.ravel()[big] * np.float32(-1.0)).reshape(-1)
+        np.subtract(np.float32(1.0), one, out=one)
+        c.ravel()[big] = cv2.log(one).reshape(-1) - u.ravel()[big]
     c *= np.float32(1.0 / GLINT_LN_STEP)
     e += c
 
