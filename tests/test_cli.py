@@ -98,14 +98,17 @@ def test_dump_config_round_trip(tmp_path):
                                         "shallow = 0.1\n")
     argv = ["generate", "--preset", "paper-alt30", "--config", tmp_path / "base.toml",
             "--pitch", "40-90", "--format", "coco,yolo", "--yolo-seg", "--fov", "80.5",
-            "--out", tmp_path / "never"]
+            "--wb-red", "0.9-1.1", "--out", tmp_path / "never"]
     rc, dumped, err = sdcomp([*argv, "--dump-config"])
     assert rc == 0, err
     assert not (tmp_path / "never").exists()  # nothing written
     data = tomllib.loads(dumped)
-    assert set(data) == set(GeneratorConfig().to_dict()) - {"sensor_px", "backgrounds",
-                                                           "background_labels"}
+    # every setting but the unset optional ones (None: TOML has no null), fov and wb_red set
+    unset = {k for k, v in GeneratorConfig().to_dict().items() if v is None}
+    assert unset >= {"sensor_px", "backgrounds", "background_labels", "exposure_bias"}
+    assert set(data) == set(GeneratorConfig().to_dict()) - unset | {"fov", "wb_red"}
     assert data["altitude"] == "12-18" and data["pitch"] == "40-90"
+    assert data["wb_red"] == "0.9-1.1" and "wb_blue" not in data
     assert data["format"] == ["coco", "yolo"] and data["yolo_seg"] is True
     (tmp_path / "dump.toml").write_text(dumped)
     parser = generate.build_parser()
