@@ -7,7 +7,7 @@ with ``mmap`` and returns them with ``munmap``; below it, it trims the heap's to
 and every page costs a fault (on the development VM a 1080p image took about 10,000 faults,
 a fifth of its time). :func:`keep_freed_memory` raises the thresholds so that freed frames
 stay in the heap and are reused: at 1920x1080 the faults fall from ~10,600 to ~1,600 an
-image and the image takes about 10 % less (docs/performance.md). Peak memory is unchanged:
+image and a 2-worker run goes about 5 % faster (docs/performance.md). Peak memory is the same:
 what is kept is what the previous image used. Blocks above :data:`MMAP_THRESHOLD` (a huge
 frame's 2.7 GB) are still mapped and returned at once.
 """

@@ -230,8 +230,8 @@ def saturate_rows(e: np.ndarray, ln_n: np.ndarray) -> None:
     facet count of each row. The expected count becomes ``N (1 - exp(-lam / N))``, i.e.
     ``ln lam`` grows by ``ln((1 - exp(-x)) / x)`` with ``x = lam / N``: from its series
     ``-x/2 + x^2/24 - x^4/2880`` below :data:`SATURATE_SERIES` (relative error < 1e-9),
-    exactly on the pixels above, by OpenCV's exp and log (NumPy's float32 ``expm1`` and
-    ``log`` have no vector path: 20x the cost)."""
+    exactly on the pixels above, by OpenCV's exp and log (NumPy's float32 ``expm1`` has no
+    vector path: 20x the cost of ``exp``)."""
     u = e * np.float32(GLINT_LN_STEP)
     u += np.float32(GLINT_LN0) - ln_n  # ln x
     x = cv2.exp(u)
