@@ -16,22 +16,21 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import os
 
 MMAP_THRESHOLD = 128 << 20  # bytes: larger blocks are mapped and returned at once
 TRIM_THRESHOLD = 512 << 20  # bytes: free memory at the heap's top kept up to this
 TOP_PAD = 64 << 20  # bytes: extra asked of the system each time the heap grows
 _M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_THRESHOLD = -1, -2, -3  # glibc's mallopt params
-_done: list[bool] = []
 
 
+@functools.cache
 def keep_freed_memory() -> bool:
     """Set glibc's malloc thresholds (:data:`MMAP_THRESHOLD`, :data:`TRIM_THRESHOLD`,
     :data:`TOP_PAD`) for this process and the workers it forks, once. Returns whether they
     are set: False where the C library is not glibc, or where ``SDCOMP_KEEP_HEAP=0`` asks
     to leave malloc as it is."""
-    if _done:
-        return _done[0]
     ok = False
     if os.environ.get("SDCOMP_KEEP_HEAP", "1") != "0":
         try:
@@ -43,5 +42,4 @@ def keep_freed_memory() -> bool:
             ok = all(mallopt(param, value) == 1 for param, value in (
                 (_M_MMAP_THRESHOLD, MMAP_THRESHOLD), (_M_TRIM_THRESHOLD, TRIM_THRESHOLD),
                 (_M_TOP_PAD, TOP_PAD)))
-    _done.append(ok)
     return ok

@@ -239,9 +239,8 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     than the cache: every image would rebuild them).
     """
     key = (w, h, round(fx, 6), round(fy, 6), k1, k2, ca_red, ca_blue)
-    hit = _MAP_CACHE.get(key)
+    hit = _recall(_MAP_CACHE, key)
     if hit is not None:
-        _MAP_CACHE.move_to_end(key)
         return hit
     out = _lens_grid(key)
     if w * h <= STREAM_PIXELS:
@@ -253,12 +252,25 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
             if c == green:
                 nearest = cv2.convertMaps(*points, cv2.CV_16SC2, nninterpolation=True)[0]
         out = replace(out, maps=tuple(maps), nearest=nearest, field_r2=grid.full(grid.r2))
-    _MAP_CACHE[key] = out
-    total = sum(v.nbytes for v in _MAP_CACHE.values())
-    while total > MAP_CACHE_BYTES and len(_MAP_CACHE) > 1:
-        _, old = _MAP_CACHE.popitem(last=False)
-        total -= old.nbytes
-    return out
+    return _remember(_MAP_CACHE, key, out, MAP_CACHE_BYTES)
+
+
+def _recall(cache: OrderedDict, key: tuple) -> LensMaps | None:
+    """The lens kept in the LRU ``cache`` under ``key`` (now its most recent), or None."""
+    hit = cache.get(key)
+    if hit is not None:
+        cache.move_to_end(key)
+    return hit
+
+
+def _remember(cache: OrderedDict, key: tuple, lens: LensMaps, limit: int) -> LensMaps:
+    """Keep ``lens`` in the LRU ``cache`` under ``key``, dropping the least recently used
+    lenses while the cache holds more than ``limit`` bytes (never the last one); ``lens``."""
+    cache[key] = lens
+    total = sum(v.nbytes for v in cache.values())
+    while total > limit and len(cache) > 1:
+        total -= cache.popitem(last=False)[1].nbytes
+    return lens
 
 
 _GRID_CACHE: OrderedDict = OrderedDict()
@@ -270,9 +282,8 @@ def _lens_grid(key: tuple) -> LensMaps:
     :func:`lens_maps` key. Cached apart from the full maps (an LRU
     up to :data:`GRID_CACHE_BYTES`): a frame whose full maps fell out of their cache
     rebuilds those only (the zoom's bisection alone takes 20 ms at 1920 x 1080)."""
-    hit = _GRID_CACHE.get(key)
+    hit = _recall(_GRID_CACHE, key)
     if hit is not None:
-        _GRID_CACHE.move_to_end(key)
         return hit
     w, h, fx, fy, k1, k2, ca_red, ca_blue = key
     cas = (ca_red, 0.0, ca_blue) if (ca_red or ca_blue) else (0.0,)
@@ -295,13 +306,8 @@ def _lens_grid(key: tuple) -> LensMaps:
     r2 = (((sx - cx) / fx) ** 2 + ((sy - cy) / fy) ** 2).astype(np.float32)
     shift = float(np.sqrt((sx - gx) ** 2 + (sy - gy) ** 2).max())
     grid = LensGrid(w, h, step, tuple(src), r2)
-    out = LensMaps(grid, zoom, shift, (w, h, fx, fy, k1, k2))
-    _GRID_CACHE[key] = out
-    total = sum(v.nbytes for v in _GRID_CACHE.values())
-    while total > GRID_CACHE_BYTES and len(_GRID_CACHE) > 1:
-        _, old = _GRID_CACHE.popitem(last=False)
-        total -= old.nbytes
-    return out
+    return _remember(_GRID_CACHE, key, LensMaps(grid, zoom, shift, (w, h, fx, fy, k1, k2)),
+                     GRID_CACHE_BYTES)
 
 
 def clear_caches() -> None:
