@@ -22,7 +22,7 @@ import trimesh
 from sdcomp.assets.mesh import ColoredMesh
 from sdcomp.atlas.cache import ensure_atlas
 from sdcomp.atlas.poses import PoseGrid
-from sdcomp.atlas.raster import render
+from sdcomp.atlas.raster import _block_sum, render
 from sdcomp.atlas.sheet import contact_sheet, write_contact_sheet
 from sdcomp.atlas.store import (
     FORMAT_VERSION,
@@ -161,6 +161,22 @@ def test_atlas_matches_direct_render_and_mask_is_exact(mesh, atlas, saved):
             np.testing.assert_allclose(a.normal[i], sp.normal, rtol=0, atol=0.5 / 127 + 1e-6)
             tol = np.spacing(np.abs(sp.height).astype(np.float16)).astype(np.float32)
             assert np.all(np.abs(a.height[i] - sp.height) <= tol), i
+
+
+@pytest.mark.parametrize("ss", [1, 2, 3, 4])
+def test_block_sums_equal_a_reduction_over_the_blocks(ss):
+    """The supersampling's block sums: exact on integers (albedo), within float32 rounding
+    of a float64 reduction otherwise, for every supersampling factor."""
+    rng = np.random.default_rng(ss)
+    ints = rng.integers(0, 256, (5 * ss, 7 * ss, 3)).astype(np.float32)
+    floats = rng.normal(size=(5 * ss, 7 * ss)).astype(np.float32)
+    for a in (ints, floats):
+        ref = a.astype(np.float64).reshape(5, ss, 7, ss, *a.shape[2:]).sum(axis=(1, 3))
+        got = _block_sum(a, ss)
+        assert got.shape == ref.shape and got.dtype == np.float32
+        np.testing.assert_allclose(got, ref, rtol=0, atol=4e-7 * ss * ss * np.abs(a).max())
+    np.testing.assert_array_equal(_block_sum(ints, ss), ints.reshape(
+        5, ss, 7, ss, 3).astype(np.int64).sum(axis=(1, 3)))
 
 
 def test_albedo_nonzero_exactly_where_covered(atlas, saved):

@@ -56,7 +56,7 @@ def missing_atlases(folder: Path, names: list[str]) -> list[str]:
     return [n for n in names if not atlas_paths(folder, n)[1].exists()]
 
 
-def announce_build(folder: Path, n: int, seconds_each: float = 7.0) -> None:
+def announce_build(folder: Path, n: int, seconds_each: float = 3.5) -> None:
     """Say on stderr, in one line and at once, that ``n`` atlases are being built, where and
     for about how long (``seconds_each`` an atlas on one core, shared by the cores)."""
     minutes = n * seconds_each / max(1, os.cpu_count() or 1) / 60

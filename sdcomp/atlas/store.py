@@ -36,6 +36,7 @@ from .. import __version__
 from ..assets.mesh import ColoredMesh
 from ..errors import UserError
 from ..util.files import atomic_path, atomic_write_bytes
+from ..util.heap import keep_freed_memory
 from ..util.pool import imap_ordered
 from ..util.progress import Progress
 from .poses import PoseGrid, nearest_pose
@@ -181,8 +182,11 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
     """Render ``mesh`` at every pose of ``config.grid`` (in ``workers`` processes of
     :func:`sdcomp.util.pool.imap_ordered`, or in this one when ``workers`` is 1).
 
-    The result does not depend on the number of workers.
+    The result does not depend on the number of workers. Freed sub-pixel buffers stay in
+    the heap (:func:`sdcomp.util.heap.keep_freed_memory`): without it page faults took a
+    third of a build's time.
     """
+    keep_freed_memory()
     poses = config.grid.poses()
     mpp = metres_per_pixel(mesh, config)
     workers = max(1, min(workers or os.cpu_count() or 1, len(poses)))
