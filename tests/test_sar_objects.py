@@ -14,6 +14,7 @@ import pytest
 from sdcomp import GeneratorConfig
 from sdcomp.assets import sar
 from sdcomp.errors import SettingError, UserError
+from sdcomp.scene.camera import PITCH_RANGE
 from sdcomp.scene.config import MAX_INSTANCES, ObjectSpec
 from sdcomp.scene.objects import (
     CLUTTER_KINDS,
@@ -192,7 +193,7 @@ def test_seadronessee_preset_has_its_categories_and_distributions():
     model = c.camera_model()
     assert abs(model.fx - 2987) < 2 and model.fx == model.fy  # the Mavic 2 Pro's 4K video
     assert c.pair_pitch and len(c.altitude.values) == len(c.pitch.values) == 100
-    assert min(c.pitch.values) == 15 and float(np.median(c.altitude.values)) == 36
+    assert min(c.pitch.values) == PITCH_RANGE[0] == 2 and float(np.median(c.altitude.values)) == 36
     assert set(c.clutter_kinds).isdisjoint(sar.KINDS)
     assert GeneratorConfig().categories[0]["supercategory"] == "object"  # BlueROV2: as before
 
@@ -257,8 +258,10 @@ def test_a_narrower_view_holds_fewer_of_the_presets_objects():
 
     asked = float(np.mean(frame.count.values))
     many, few = counts(frame, Role.OBJECT), counts(window, Role.OBJECT)
-    # at least one drawn; a few cannot be placed (no size of theirs fits the view)
-    assert float(np.mean(few == 0)) < 0.15 and few.max() <= 3
+    # at least one drawn; a few cannot be placed (no size of theirs fits the view, or a
+    # flat view's window is sky and far water): 14.5 % in 1000 draws, 9 % while the flat
+    # views (12 % of the preset's) were drawn at 15 degrees
+    assert float(np.mean(few == 0)) < 0.2 and few.max() <= 3
     # rounded at random: the mean is the scaled one, lifted a little by the floor of one
     assert asked * share <= float(few.mean()) <= asked * share + 0.6
     assert float(many.mean()) > 0.8 * asked  # (placements the view cannot hold drop out)

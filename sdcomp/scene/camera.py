@@ -26,8 +26,10 @@ from ..errors import UserError
 
 #: camera altitude above the sea, metres (the config's --altitude and CameraPose check these)
 ALTITUDE_RANGE = (1.0, 1000.0)
-#: gimbal pitch below the horizon, degrees: 15 (low) to 90 (straight down)
-PITCH_RANGE = (15.0, 90.0)
+#: gimbal pitch below the horizon, degrees: 2 (nearly level: the horizon just above the frame's
+#: centre, as in SeaDronesSee's flattest frames) to 90 (straight down); at 0 the frame's centre
+#: would look at the horizon (no ground sampling distance there)
+PITCH_RANGE = (2.0, 90.0)
 #: the photo frames of the drone cameras: (sensor width px, sensor height px, diagonal field
 #: of view degrees)
 PHOTO_PRESETS: dict[str, tuple[int, int, float]] = {

@@ -111,7 +111,7 @@ class GeneratorConfig:
     altitude: Param = setting("10-50", "param", "camera altitude, metres: value, range lo-hi "
                               "or list a,b,c", "M", *ALTITUDE_RANGE, unit="m")
     pitch: Param = setting(90, "param", "gimbal pitch below the horizon, degrees: 90 straight "
-                           "down, down to 15", "DEG", *PITCH_RANGE, unit="degrees")
+                           "down, down to 2 (nearly level)", "DEG", *PITCH_RANGE, unit="degrees")
     heading: Param = setting("0-360", "param", "camera heading, degrees", "DEG", -360.0,
                              720.0, "degrees")
     pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch with the k-th --altitude "

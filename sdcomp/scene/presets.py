@@ -28,8 +28,9 @@ def _paper(**kw: Any) -> dict:
 # its 1030 frames with flight metadata (all 3840 x 2160), every 10.3th in order of altitude
 # then pitch: the pairs keep the joint distribution (higher flights look more steeply
 # down, correlation 0.38), which sets how far away the objects are; drawn paired
-# (pair_pitch). Pitches under sdcomp's floor of 15 degrees (12 % of the frames: 0-14
-# degrees, nearly level views) are drawn at 15. And the boxes per frame, as 40 quantiles
+# (pair_pitch). Its one pitch under sdcomp's floor of 2 degrees (a level view) is drawn at 2;
+# the flat views (12 % of the frames at 0-14 degrees) are where its smallest boats and buoys
+# are, far off. And the boxes per frame, as 40 quantiles
 # (at (i + 0.5) / 40). A list is drawn uniformly, so the lists reproduce the distributions.
 SDS_CLASSES = (("swimmer", 6206), ("boat", 2214), ("jetski", 320),
                ("life_saving_appliances", 330), ("buoy", 560))

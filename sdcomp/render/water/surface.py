@@ -88,7 +88,8 @@ def view_water(model: CameraModel, pose: CameraPose, params: WaterParams,
                textures: WaterTextures) -> WaterView:
     """The coarse terms, exposure and object light of the sea seen by ``model`` at ``pose``
     (step 1 of the module docstring). Raises ValueError for a view that sees no sea
-    (sdcomp's poses always do: pitch >= 15 degrees)."""
+    (sdcomp's poses always do: at pitch >= 2 degrees the bottom rows look below the
+    horizon)."""
     w, h = int(model.width), int(model.height)
     pitch_deg = float(pose.pitch)
     if params.time is not None:  # a video frame: never the straight-down crops, whose one
