@@ -467,7 +467,7 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, str | None]]:
         "preset": (["--preset", "nope"], "--preset", None),
         "size0": (["--size", "0"], "--size", None),
         "width0": (["--width", "0"], "--width", None),
-        "pitch10": (["--pitch", "10"], "--pitch", None),
+        "pitch1": (["--pitch", "1"], "--pitch", None),
         "pitch95": (["--pitch", "95"], "--pitch", None),
         "turbidity": (["--turbidity", "1.5"], "--turbidity", None),
         "val2": (["--val-fraction", "2"], "--val-fraction", None),
@@ -487,7 +487,7 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, str | None]]:
 
 
 BAD_NAMES = ["n0", "n-5", "alt0", "alt-3", "alt50-10", "water-purple", "water-300", "preset",
-             "size0", "width0", "pitch10", "pitch95", "turbidity", "val2", "bg-missing",
+             "size0", "width0", "pitch1", "pitch95", "turbidity", "val2", "bg-missing",
              "bg-empty", "bg-corrupt", "object-missing", "config-missing", "config-invalid",
              "config-unknown", "format-gif", "camera", "count3-1", "workers0"]
 
