@@ -345,3 +345,55 @@ def test_video_frames_are_read(tmp_path):
     writer.release()
     foot = read_footage(path, max_frames=4)
     assert foot.frames == 4 and (foot.width, foot.height) == (128, 128)
+
+
+def _srt(entries: list[tuple[float, float, str]], crlf: bool = False) -> str:
+    """A subtitle file of (start s, end s, text) entries, as DJI drones write them."""
+    def stamp(t: float) -> str:
+        ms = round(t * 1000)
+        return f"{ms // 3600000:02d}:{ms // 60000 % 60:02d}:{ms // 1000 % 60:02d},{ms % 1000:03d}"
+    blocks = [f"{i + 1}\n{stamp(a)} --> {stamp(b)}\n{text}\n" for i, (a, b, text) in
+              enumerate(entries)]
+    out = "\n".join(blocks)
+    return out.replace("\n", "\r\n") if crlf else out
+
+
+def test_video_srt_log_gives_geometry_per_frame(tmp_path):
+    """A DJI video's SRT beside it gives each frame its height above take-off and gimbal
+    pitch (newer models: ``rel_alt``, ``gb_pitch``, one entry per frame); without one the
+    geometry is unknown; the absolute (GPS) altitude is never taken."""
+    from sdcomp.fitting.footage import read_footage
+
+    frames = _plain_frames(tmp_path / "png", 6, 128)
+    path = tmp_path / "DJI_0042.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (128, 128))
+    for f in frames:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+    assert read_footage(path).altitude == []
+    text = [f'<font size="28">FrameCnt: {k + 1}, DiffTime: 100ms\n2024-06-01 12:00:00.{k}\n'
+            f"[iso: 100] [shutter: 1/1000.0] [latitude: 47.67] [longitude: 9.26] "
+            f"[rel_alt: {30 + k}.500 abs_alt: {420 + k}.100] [gb_yaw: 12.0 gb_pitch: "
+            f"-{40 + k}.0 gb_roll: 0.0] </font>" for k in range(6)]
+    (tmp_path / "DJI_0042.SRT").write_text(_srt([(0.1 * k, 0.1 * (k + 1), t)
+                                                 for k, t in enumerate(text)], crlf=True))
+    foot = read_footage(path, max_frames=6)
+    assert sorted(foot.altitude) == [30.5 + k for k in range(6)]
+    assert sorted(foot.pitch) == [40.0 + k for k in range(6)]
+    assert any("flight logs" in n for n in foot.notes)
+
+
+def test_srt_entries_of_older_models_and_broken_lines():
+    """Older DJI SRTs (one entry a second, ``H 36.2m`` without gimbal pitch) are read; an
+    entry without a time span or with a broken number gives nothing, without an error."""
+    from sdcomp.fitting.flightlog import ALTITUDE_KEY, PITCH_KEY, parse_srt
+
+    old = ("F/2.8, SS 1000, ISO 100, EV 0, GPS (9.2679, 47.6721, 19), D 12.34m, H 36.20m, "
+           "H.S 0.00m/s, V.S 0.00m/s")
+    text = _srt([(0.0, 1.0, old), (1.0, 2.0, "[rel_alt: x.y] [gb_pitch: -1e]"),
+                 (2.0, 3.0, "HOME(9.26,47.67) 2019.06.01 [altitude: 431.2]")])
+    text += "\n\n7\nno time here\n[rel_alt: 99.0]\n"
+    starts, ends, metas = parse_srt(text)
+    assert starts.tolist() == [0.0, 1.0, 2.0] and ends.tolist() == [1.0, 2.0, 3.0]
+    assert metas[0] == {ALTITUDE_KEY: 36.2} and PITCH_KEY not in metas[0]
+    assert metas[1] == {} and metas[2] == {}

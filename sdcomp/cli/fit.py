@@ -48,11 +48,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "a COCO file's SeaDronesSee meta (height_above_takeoff(meter), "
                    "gimbal_pitch(degrees)) gives the geometry (default: none)")
     p.add_argument("--altitude", metavar="M", type=float, help="camera altitude of the "
-                   "footage, metres (default: from the labels' meta, else the photos' DJI "
-                   "XMP, else not fitted)")
+                   "footage, metres (default: from the labels' meta, else DJI flight logs: "
+                   "a photo's XMP, a video's SRT file beside it; else not fitted)")
     p.add_argument("--pitch", metavar="DEG", type=float, help="gimbal pitch below the "
                    "horizon, degrees, 90 = straight down (default: from the labels' meta, "
-                   "else the photos' DJI XMP, else not fitted)")
+                   "else DJI flight logs (XMP, SRT), else not fitted)")
     p.add_argument("--size", metavar="PX", type=int, help="long side of the frames as "
                    "measured and generated, pixels (default: the frames' own, at most 512)")
     p.add_argument("--max-frames", metavar="N", type=int, default=200, help="at most N "

@@ -1,12 +1,11 @@
 """Reading the user's footage for ``sdcomp fit``: frames at one working size, their water
 statistics (:mod:`.stats`, objects of the optional labels kept out) and their geometry
-(``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``, else the photos' DJI
-XMP)."""
+(``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``, else the flight logs
+of :mod:`.flightlog`: a photo's DJI XMP, a video's SRT subtitle file)."""
 
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,16 +17,11 @@ from ..report.realism.patches import PATCH, empty_water
 from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
 from ..report.realism.sources import load_frame, load_real
 from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE
+from .flightlog import dji_meta, srt_meta
 from .stats import image_stats as measure_image
 from .stats import stack, summary
 
 MAX_SIDE = 512  #: frames larger than this (long side, px) are measured resized to it
-XMP_HEAD = 1 << 17  #: bytes of a photo searched for DJI's XMP attributes
-#: DJI XMP attributes (drone-dji namespace) -> (meta key, sign): DJI's gimbal pitch is
-#: negative below the horizon (-90 straight down), sdcomp's positive
-DJI_XMP = {"RelativeAltitude": (ALTITUDE_KEY, 1.0), "GimbalPitchDegree": (PITCH_KEY, -1.0)}
-_XMP_VALUE = re.compile(rb'drone-dji:(RelativeAltitude|GimbalPitchDegree)\s*=\s*"([^"]*)"|'
-                        rb'<drone-dji:(RelativeAltitude|GimbalPitchDegree)>([^<]*)<')
 
 
 @dataclass
@@ -79,7 +73,7 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     w, h = working_size(s0.width, s0.height, size)
     rows: list[dict[str, float] | None] = []
     crops: list[np.ndarray] = []
-    alts, pitches, unread = [], [], 0
+    alts, pitches, unread, logs = [], [], 0, 0
     for frame in fs.frames:
         loaded = load_frame(frame)
         if loaded is None:
@@ -91,8 +85,11 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
             crops.append(rgb)
         meta = frame.meta
         if (num(meta, ALTITUDE_KEY) is None or num(meta, PITCH_KEY) is None) and (
-                frame.source is not None and frame.source.frame is None):
-            meta = {**dji_meta(frame.path), **meta}
+                frame.source is not None):
+            k = frame.source.frame
+            logged = dji_meta(frame.path) if k is None else srt_meta(frame.path, k)
+            logs += bool(logged)
+            meta = {**logged, **meta}
         alts.append(num(meta, ALTITUDE_KEY))
         pitches.append(num(meta, PITCH_KEY))
     per = stack(rows)
@@ -103,32 +100,11 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     out.altitude = _geometry(altitude, alts, ALTITUDE_RANGE, "altitude")
     out.pitch = _geometry(pitch, pitches, PITCH_RANGE, "pitch")
     out.notes = [*fs.notes, f"measured at {w} x {h} px"]
+    if logs:
+        out.notes.append(f"altitude or pitch of {logs} frames from flight logs (DJI XMP, "
+                         f"SRT)")
     if unread:
         out.notes.append(f"{unread} frames could not be read")
-    return out
-
-
-def dji_meta(path: Path) -> dict[str, float]:
-    """SeaDronesSee-style meta (altitude above take-off m, gimbal pitch degrees below the
-    horizon) from the DJI XMP of a photo (``drone-dji:RelativeAltitude``,
-    ``GimbalPitchDegree``, as attributes or elements in its first :data:`XMP_HEAD` bytes);
-    {} when it has none or the file cannot be read."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(XMP_HEAD)
-    except OSError:
-        return {}
-    out = {}
-    for m in _XMP_VALUE.finditer(head):
-        name = (m.group(1) or m.group(3)).decode()
-        text = (m.group(2) if m.group(1) else m.group(4)).decode("ascii", "replace")
-        try:
-            value = float(text.strip())
-        except ValueError:
-            continue
-        key, sign = DJI_XMP[name]
-        if math.isfinite(value):
-            out[key] = sign * value
     return out
 
 
