@@ -111,17 +111,19 @@ def test_motion_probability_switches_motion_blur():
 
 
 def test_exposure_and_white_balance_set_by_the_user():
-    """--exposure-bias, --wb-red and --wb-blue replace the look's draws of exposure_ev,
-    wb_red and wb_blue (a range, a value or a list, whatever the preset, clean too); every
-    other parameter and the scene's other draws stay those of the default config."""
+    """--exposure-bias, --wb-red, --wb-blue, --contrast and --saturation replace the look's
+    draws of exposure_ev, wb_red, wb_blue, contrast and saturation (a range, a value or a
+    list, whatever the preset, clean too); every other parameter and the scene's other
+    draws stay those of the default config."""
     import sdcomp.scene.sample as S
     from sdcomp.errors import SettingError
     from sdcomp.scene.config import GeneratorConfig
 
     base = GeneratorConfig()
     mine = GeneratorConfig.from_mapping({"exposure_bias": "-1:-0.5", "wb_red": 1.4,
-                                         "wb_blue": [0.7, 0.8]})
-    changed = {"exposure_ev", "wb_red", "wb_blue"}
+                                         "wb_blue": [0.7, 0.8], "contrast": 1.7,
+                                         "saturation": "0.4-0.6"})
+    changed = {"exposure_ev", "wb_red", "wb_blue", "contrast", "saturation"}
     targets = []
     for i in range(40):
         a, b = S.sample_scene(base, i), S.sample_scene(mine, i)
@@ -130,6 +132,7 @@ def test_exposure_and_white_balance_set_by_the_user():
             if name not in changed:
                 assert getattr(a.look, name) == getattr(b.look, name), name
         assert b.look.wb_red == 1.4 and b.look.wb_blue in (0.7, 0.8)
+        assert b.look.contrast == 1.7 and 0.4 <= b.look.saturation <= 0.6
         # the bias is folded into the water's exposure target (sample.expose)
         targets.append(math.log2(b.water.exposure_target / b.look.ae_target))
     assert -1.0 - 1e-9 <= min(targets) < -0.9 and -0.6 < max(targets) <= -0.5 + 1e-9
@@ -140,6 +143,8 @@ def test_exposure_and_white_balance_set_by_the_user():
     assert again == mine and "wb_red = 1.4" in mine.to_toml()
     with pytest.raises(SettingError, match="0.2 to 5"):
         GeneratorConfig.from_mapping({"wb_red": 0.0})
+    with pytest.raises(SettingError, match="0.5 to 2.5"):
+        GeneratorConfig.from_mapping({"contrast": 3})
 
 
 def test_video_quality_comes_from_bits_per_pixel():

@@ -159,6 +159,26 @@ def test_white_balance_and_exposure_fit_a_colour_cast(tmp_path, sprites_dir):
     assert "wb_red = " in text and write_config(tmp_path / "cast.toml", text) == c
 
 
+def test_contrast_is_fitted_to_a_vivid_camera(tmp_path, sprites_dir):
+    """Footage of a camera with a vivid profile (a steep tone curve, contrast 1.8, and
+    saturation 1.4, above every look's draws) is fitted with a fixed contrast above the
+    looks' usual 1.15, and the loss falls under 0.7 times what the search reaches without
+    the contrast (measured: 35.5 against 72.8)."""
+    make_footage(tmp_path / "vivid", {"water": ["coastal", "lake"], "wind": "2-6",
+                                      "contrast": 1.8, "saturation": 1.4}, sprites_dir)
+    without = tuple(g for g in CANDIDATES if g != "contrast")
+    runs = {name: fit_footage(tmp_path / "vivid", sprites_dir=sprites_dir, n_render=RENDERS,
+                              passes=1, groups=groups)
+            for name, groups in (("with", None), ("without", without))}
+    foot = runs["with"].footage.summary
+    losses = {k: loss(r.search.summary, foot) for k, r in runs.items()}
+    assert losses["with"] < 0.7 * losses["without"], losses
+    c = runs["with"].config
+    assert c.contrast is not None and _low(c.contrast) > 1.15, c.to_dict()
+    text = config_text(c, ["test"], False)
+    assert "contrast = " in text and write_config(tmp_path / "vivid.toml", text) == c
+
+
 # --------------------------------------------------------------------------- the statistics
 
 def test_statistics_respond_to_blur_noise_and_blocks():

@@ -26,6 +26,7 @@ KEYS: tuple[tuple[str, str], ...] = (
     ("exposure_bias", "stops over the auto exposure (brightness); unset: the look's draws"),
     ("wb_red", "white balance gains (colour cast); unset: the look's draws"),
     ("wb_blue", ""),
+    ("contrast", "tone curve contrast (luminance spread); unset: the look's draws"),
     ("recording", "video (H.264/H.265 frames) or photo (JPEG)"),
     ("jpeg_quality", "compression of the written files (blockiness)"),
     ("motion_blur", "probability of motion blur (sharpness)"),

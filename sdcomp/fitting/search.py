@@ -9,8 +9,8 @@ Two steps, repeated once the camera is known:
    least :data:`TYPE_SHARE` of the frames are kept, and the turbidity range covers the
    10th to 90th percentile of their frames' turbidities;
 2. a coordinate search over candidate values of the other settings (the camera's look,
-   exposure bias, white balance and recording, JPEG quality, sky, sun elevation, wind,
-   motion and defocus blur): each
+   exposure bias, white balance, contrast and recording, JPEG quality, sky, sun elevation,
+   wind, motion and defocus blur): each
    candidate config renders the same ``n_render`` water-only frames (seeded, no objects)
    and the candidate whose statistics' :func:`~.stats.loss` to the footage's is lowest is
    kept.
@@ -48,6 +48,9 @@ CANDIDATES: dict[str, list[dict]] = {
                                                  "0.3:0.9", "0.9:1.5")],
     "wb_red": [{"wb_red": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
     "wb_blue": [{"wb_blue": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
+    # the tone curve's contrast: unset or fixed (saturation is not searched: on water-only
+    # frames the water type and white balance reach it)
+    "contrast": [{"contrast": v} for v in (None, 0.7, 0.85, 1.0, 1.15, 1.35, 1.6, 1.9)],
     "recording": [{"recording": v} for v in ("video", "photo")],
     "jpeg_quality": [{"jpeg_quality": v} for v in ("90-95", "75-90", "50-75", "96-100")],
     "blur": [{"motion_blur": m, "defocus_blur": d}

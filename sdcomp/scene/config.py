@@ -34,8 +34,17 @@ from .objects import (
 )
 from .params import Param
 from .presets import PRESETS, preset
-from .settings import check_float, int_pair, load_toml, names, setting, setting_of, toml_value
-from .water import SKY_KINDS, WATER_NAMES, parse_water
+from .settings import (
+    check_float,
+    int_pair,
+    label_formats,
+    load_toml,
+    names,
+    setting,
+    setting_of,
+    toml_value,
+)
+from .water import SKY_KINDS, WATER_NAMES, water_text
 
 IMAGE_FORMATS = ("jpg", "png")
 #: what --unlabelled does with objects of interest that cannot be labelled
@@ -43,6 +52,10 @@ UNLABELLED = ("draw", "skip")
 #: annotation formats of --format (COCO JSON, Ultralytics YOLO label files)
 LABEL_FORMATS = ("coco", "yolo")
 MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 digits)
+#: settings that replace one parameter of the camera look's per-image draw, when set
+#: (config field -> :data:`sdcomp.scene.look_table.PARAMS` name)
+LOOK_SETTINGS = {"exposure_bias": "exposure_ev", "wb_red": "wb_red", "wb_blue": "wb_blue",
+                 "contrast": "contrast", "saturation": "saturation"}
 #: fields of earlier versions and what took their place: a config naming one still loads
 #: (with a warning), the value is not used
 RETIRED = {
@@ -197,6 +210,11 @@ class GeneratorConfig:
                                    "neutral) per image; unset: --look's draw", "GAIN", 0.2, 5.0)
     wb_blue: Param | None = setting(None, "param", "white balance gain of blue, as --wb-red",
                                     "GAIN", 0.2, 5.0)
+    contrast: Param | None = setting(None, "param", "tone curve contrast (an S-curve about mid "
+                                     "grey; 1 none) per image; unset: --look's draw", "C",
+                                     0.5, 2.5)
+    saturation: Param | None = setting(None, "param", "colour saturation (1 as recorded, 0 "
+                                       "grey) per image; unset: --look's draw", "S", 0.0, 2.5)
     recording: str = setting("video", "custom", "what the camera records: video (4K H.264/"
                              "H.265 frames) or photo (full-resolution JPEG)", "video|photo")
     motion_blur: float = setting(0.5, "float", "probability of motion blur along the flight",
@@ -215,7 +233,7 @@ class GeneratorConfig:
 
     def _check_camera(self) -> None:
         """Output formats and the camera: presets, custom FOV and sensor."""
-        self._put("format", _label_formats(self.format))
+        self._put("format", label_formats(self.format, LABEL_FORMATS))
         if self.yolo_seg and "yolo" not in self.format:
             raise SettingError("yolo_seg", "{name} writes YOLO polygon labels: add --format "
                                            "yolo (or coco,yolo), or drop {name}")
@@ -252,7 +270,7 @@ class GeneratorConfig:
         if not water:
             raise SettingError("water", "{name} needs at least one water: "
                                         f"{', '.join(WATER_NAMES)} or R,G,B")
-        self._put("water", tuple(_water_text(w) for w in water))
+        self._put("water", tuple(water_text(w) for w in water))
         sky = names(self.sky, "sky")
         bad = [k for k in sky if k not in SKY_KINDS]
         if bad or not sky:
@@ -293,6 +311,10 @@ class GeneratorConfig:
             return CameraModel(sw, sh, self.fov if self.fov is not None else base[2],
                                self.width, self.height)
         return CameraModel.preset(self.camera, self.width, self.height)
+
+    def look_overrides(self) -> dict[str, Param | None]:
+        """The look's parameters set by :data:`LOOK_SETTINGS` (None: the look draws it)."""
+        return {look: getattr(self, name) for name, look in LOOK_SETTINGS.items()}
 
     @property
     def look_preset(self) -> str:
@@ -366,34 +388,6 @@ class GeneratorConfig:
                                 f"`python -m sdcomp.generate --help` for the names")
             clean[name] = value
         return replace(base or cls(), **clean)
-
-
-def _label_formats(v: Any) -> tuple[str, ...]:
-    """The formats of ``--format`` in canonical order (``coco,yolo`` text or a list)."""
-    items = [v] if isinstance(v, str) else list(v) if isinstance(v, (list, tuple)) else None
-    if items is None or not all(isinstance(x, str) for x in items):
-        raise SettingError("format", f"{{name}} {v!r} must be coco, yolo or coco,yolo")
-    found = [x.strip().lower() for item in items for x in item.split(",") if x.strip()]
-    for name in found:
-        if name not in LABEL_FORMATS:
-            raise SettingError("format", f"{{name}} {name!r} is unknown; use coco, yolo or "
-                                         f"coco,yolo")
-    if not found:
-        raise SettingError("format", "{name} needs at least one of coco, yolo")
-    return tuple(f for f in LABEL_FORMATS if f in found)  # canonical order
-
-
-def _water_text(w: Any) -> str:
-    """A water colour as text (a name or R,G,B), checked."""
-    if isinstance(w, (list, tuple)) and len(w) == 3:
-        try:
-            w = ",".join(str(int(c)) for c in w)
-        except (TypeError, ValueError, OverflowError):
-            raise SettingError("water", f"{{name}} {w!r} is not a water: use a name "
-                                        f"({', '.join(WATER_NAMES)}) or R,G,B of 0-255"
-                               ) from None
-    parse_water(str(w))  # raises UserError for an unknown name or bad RGB
-    return str(w)
 
 
 __all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml"]

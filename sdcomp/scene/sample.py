@@ -68,9 +68,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
                          config, _placements(rng, config, model, pose, shore))
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
-                       motion=config.motion_blur, overrides={
-                           "exposure_ev": config.exposure_bias, "wb_red": config.wb_red,
-                           "wb_blue": config.wb_blue})
+                       motion=config.motion_blur, overrides=config.look_overrides())
     water, look = expose(water, look)
     scale = max(model.width, model.height) / 416.0
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..errors import UserError
+from ..errors import SettingError, UserError
 
 #: water types: (chl mg/m^3, CDOM a(440) 1/m, TSM g/m^3) ranges; turbidity picks the place
 #: in each range (log scale)
@@ -140,3 +140,17 @@ def parse_water(text: str) -> tuple[str, tuple[str, ...], tuple[int, int, int] |
                         f"R,G,B with 0-255 each")
     r, g, b = values
     return f"{r},{g},{b}", ("coastal",), (r, g, b)
+
+
+def water_text(w: object) -> str:
+    """A ``--water`` colour as text (a name of :data:`WATER_NAMES` or ``R,G,B``, from text or
+    a list of three numbers), checked (SettingError or UserError naming the bad value)."""
+    if isinstance(w, (list, tuple)) and len(w) == 3:
+        try:
+            w = ",".join(str(int(c)) for c in w)
+        except (TypeError, ValueError, OverflowError):
+            raise SettingError("water", f"{{name}} {w!r} is not a water: use a name "
+                                        f"({', '.join(WATER_NAMES)}) or R,G,B of 0-255"
+                               ) from None
+    parse_water(str(w))  # raises UserError for an unknown name or bad RGB
+    return str(w)
