@@ -417,3 +417,29 @@ def test_srt_entries_of_older_models_and_broken_lines():
     assert starts.tolist() == [0.0, 1.0, 2.0] and ends.tolist() == [1.0, 2.0, 3.0]
     assert metas[0] == {ALTITUDE_KEY: 36.2} and PITCH_KEY not in metas[0]
     assert metas[1] == {} and metas[2] == {}
+
+
+def test_sky_of_oblique_footage_is_kept_out_with_its_field_of_view(tmp_path, sprites_dir):
+    """Frames looking 20 degrees below the horizon: with --fov (and the pitch) the rows
+    above the horizon and its margin are kept out of the water statistics (the sky is
+    brighter than this water: the median luminance falls), and the rendered frames of the
+    search keep theirs out too, so the same scene measures the same both ways."""
+    import math
+
+    from sdcomp.fitting.footage import read_footage
+    from sdcomp.fitting.search import Renderer
+
+    hidden = make_footage(tmp_path / "low", {"water": ["coastal"], "pitch": 20, "hills": 0.0,
+                                             "shore": 0.0}, sprites_dir)
+    m = hidden.camera_model()
+    fov = math.degrees(2 * math.atan(math.hypot(m.width, m.height) / 2 / m.fx))
+    plain = read_footage(tmp_path / "low", pitch=20)
+    masked = read_footage(tmp_path / "low", pitch=20, fov=fov)
+    assert masked.sky_masked and not plain.sky_masked
+    assert any("sky kept out of 16 frames" in n for n in masked.notes)
+    lum = {k: f.summary["luminance"][1] for k, f in (("plain", plain), ("masked", masked))}
+    assert lum["masked"] < lum["plain"] - 4, lum
+    rendered = Renderer(hidden, sprites_dir, 8, mask_sky=True).measure(hidden)[0]
+    assert abs(rendered["luminance"][1] - lum["masked"]) < 4, (rendered["luminance"], lum)
+    with pytest.raises(UserError, match="--fov 200"):
+        read_footage(tmp_path / "low", fov=200)

@@ -2,7 +2,7 @@
 images look like the user's own unlabelled footage (:mod:`sdcomp.fitting`).
 
     sdcomp fit FRAMES [--out fitted.toml] [--labels COCO|YOLO] [--altitude M] [--pitch DEG]
-                      [--size PX] [--max-frames 200] [--renders 16] [--passes 2]
+                      [--fov DEG] [--size PX] [--max-frames 200] [--renders 16] [--passes 2]
                       [--sprites DIR] [--report DIR]
 """
 
@@ -53,6 +53,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pitch", metavar="DEG", type=float, help="gimbal pitch below the "
                    "horizon, degrees, 90 = straight down (default: from the labels' meta, "
                    "else DJI flight logs (XMP, SRT), else not fitted)")
+    p.add_argument("--fov", metavar="DEG", type=float, help="diagonal field of view of the "
+                   "frames as stored, degrees (e.g. 72.8 for a Mavic 2 Pro's 4K video): "
+                   "with a known pitch, the sky of oblique frames is kept out of the water "
+                   "statistics (default: unknown: sky counts as water)")
     p.add_argument("--size", metavar="PX", type=int, help="long side of the frames as "
                    "measured and generated, pixels (default: the frames' own, at most 512)")
     p.add_argument("--max-frames", metavar="N", type=int, default=200, help="at most N "
@@ -96,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     groups = _check(args)
     result = fit_footage(args.frames, args.labels, args.altitude, args.pitch, args.size,
                          args.max_frames, args.renders, args.sprites, groups, args.passes,
-                         args.seed, log=log.info)
+                         args.seed, log=log.info, fov=args.fov)
     fitted = "altitude" if "not fitted" not in result.geometry else ""
     header = [f"sdcomp fit of {args.frames}: {result.footage.frames} frames, "
               f"{result.search.seconds:.0f} s", result.geometry,

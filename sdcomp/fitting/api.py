@@ -60,13 +60,15 @@ def fit_footage(frames: str | Path, labels: str | Path | None = None,
                 size: int | None = None, max_frames: int = 200, n_render: int = 16,
                 sprites_dir: str | Path | None = DEFAULT_SPRITES,
                 groups: tuple[str, ...] | None = None, passes: int = 2, seed: int = 0,
-                log: Callable[[str], None] | None = None) -> FitResult:
+                log: Callable[[str], None] | None = None,
+                fov: float | None = None) -> FitResult:
     """Measure the footage at ``frames`` (folder or file of photos and videos; ``labels``
     COCO json / YOLO folder keep objects out) and search the generator's settings that match
     it (:func:`sdcomp.fitting.search.search`: ``n_render`` frames per candidate, the
-    search ``groups`` of :data:`~sdcomp.fitting.search.CANDIDATES`, ``passes`` rounds).
-    UserError for bad input."""
-    footage = read_footage(frames, labels, size, max_frames, altitude, pitch, seed)
+    search ``groups`` of :data:`~sdcomp.fitting.search.CANDIDATES`, ``passes`` rounds;
+    ``fov``: the frames' diagonal field of view, degrees, which keeps the sky of oblique
+    frames of known pitch out of the statistics). UserError for bad input."""
+    footage = read_footage(frames, labels, size, max_frames, altitude, pitch, seed, fov=fov)
     if log:
         log(f"footage: {footage.frames} frames measured at {footage.width} x "
             f"{footage.height} px")

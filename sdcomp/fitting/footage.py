@@ -15,8 +15,8 @@ import numpy as np
 from ..errors import UserError
 from ..report.realism.patches import PATCH, empty_water
 from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
-from ..report.realism.sources import load_frame, load_real
-from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE
+from ..report.realism.sources import Frame, load_frame, load_real, sky_mask
+from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .flightlog import dji_meta, srt_meta
 from .stats import image_stats as measure_image
 from .stats import stack, summary
@@ -32,7 +32,9 @@ class Footage:
     ``summary`` {statistic: (p10, p50, p90)}, ``width`` x ``height`` the working size
     (pixels) frames were measured at, ``altitude`` / ``pitch`` (m, degrees) per frame where
     known (empty: not known), ``crops`` a few (h, w, 3) uint8 RGB frames at the working
-    size for the report's picture, ``notes`` one-line facts for the report."""
+    size for the report's picture, ``notes`` one-line facts for the report,
+    ``sky_masked`` whether the sky of some frames was kept out (so the rendered frames'
+    is too)."""
 
     per_image: dict[str, np.ndarray]
     summary: dict[str, tuple[float, float, float]]
@@ -43,6 +45,7 @@ class Footage:
     crops: list[np.ndarray] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     frames: int = 0
+    sky_masked: bool = False
 
 
 def working_size(width: int, height: int, size: int | None) -> tuple[int, int]:
@@ -57,15 +60,22 @@ def working_size(width: int, height: int, size: int | None) -> tuple[int, int]:
 
 def read_footage(path: str | Path, labels: str | Path | None = None, size: int | None = None,
                  max_frames: int = 200, altitude: float | None = None,
-                 pitch: float | None = None, seed: int = 0) -> Footage:
+                 pitch: float | None = None, seed: int = 0, *,
+                 fov: float | None = None) -> Footage:
     """Measure the frames at ``path`` (a folder or file of photos and videos; at most
     ``max_frames``, a seeded choice). ``labels``: a COCO json or YOLO folder whose boxes are
     kept out of the statistics (and whose ``meta`` gives altitude and pitch); ``altitude``
-    / ``pitch`` override the meta. UserError when nothing can be read or measured."""
+    / ``pitch`` override the meta; ``fov``: the frames' diagonal field of view (degrees),
+    with which the sky of a frame of known pitch is kept out of the water
+    (:func:`~sdcomp.report.realism.sources.sky_mask`). UserError when nothing can be read or
+    measured."""
     if size is not None and not PATCH <= size <= 4096:
         raise UserError(f"--size {size} is out of range: use {PATCH} to 4096 pixels")
     if max_frames < 1:
         raise UserError(f"--max-frames {max_frames} must be at least 1")
+    if fov is not None and not 1 < fov < 170:
+        raise UserError(f"--fov {fov} is out of range: use 1 to 170 degrees (the frames' "
+                        f"diagonal field of view)")
     fs = load_real(path, labels, max_images=max_frames, seed=seed)
     if not fs.frames:
         raise UserError(f"{path}: no photos or videos found")
@@ -73,25 +83,24 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     w, h = working_size(s0.width, s0.height, size)
     rows: list[dict[str, float] | None] = []
     crops: list[np.ndarray] = []
-    alts, pitches, unread, logs = [], [], 0, 0
+    alts, pitches, unread, logs, skies = [], [], 0, 0, 0
     for frame in fs.frames:
         loaded = load_frame(frame)
         if loaded is None:
             unread += 1
             continue
-        rgb, boxes = _resize(loaded.rgb, frame.boxes, w, h)
-        rows.append(measure_image(rgb, empty_water((h, w), None, boxes)))
-        if len(crops) < 4:
-            crops.append(rgb)
-        meta = frame.meta
-        if (num(meta, ALTITUDE_KEY) is None or num(meta, PITCH_KEY) is None) and (
-                frame.source is not None):
-            k = frame.source.frame
-            logged = dji_meta(frame.path) if k is None else srt_meta(frame.path, k)
-            logs += bool(logged)
-            meta = {**logged, **meta}
+        meta, logged = _frame_meta(frame)
+        logs += logged
         alts.append(num(meta, ALTITUDE_KEY))
         pitches.append(num(meta, PITCH_KEY))
+        seen = pitch if pitch is not None else pitches[-1]
+        valid = sky_mask(CameraModel(w, h, fov, w, h), seen) if (
+            fov is not None and seen is not None and 0 < seen < 90) else None
+        skies += valid is not None and not valid.all()
+        rgb, boxes = _resize(loaded.rgb, frame.boxes, w, h)
+        rows.append(measure_image(rgb, empty_water((h, w), None, boxes, valid)))
+        if len(crops) < 4:
+            crops.append(rgb)
     per = stack(rows)
     if per["luminance"].size == 0:
         raise UserError(f"{path}: none of the {len(fs.frames)} frames has a 64 x 64 patch of "
@@ -103,9 +112,25 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     if logs:
         out.notes.append(f"altitude or pitch of {logs} frames from flight logs (DJI XMP, "
                          f"SRT)")
+    out.sky_masked = skies > 0
+    if skies:
+        out.notes.append(f"sky kept out of {skies} frames (their pitch and --fov {fov:g})")
     if unread:
         out.notes.append(f"{unread} frames could not be read")
     return out
+
+
+def _frame_meta(frame: Frame) -> tuple[dict, bool]:
+    """A frame's meta (its labels'), completed from its flight log (:mod:`.flightlog`: a
+    photo's DJI XMP, a video's SRT) where altitude or pitch is missing; and whether the log
+    gave anything."""
+    meta = frame.meta
+    if frame.source is None or (num(meta, ALTITUDE_KEY) is not None
+                                and num(meta, PITCH_KEY) is not None):
+        return meta, False
+    k = frame.source.frame
+    logged = dji_meta(frame.path) if k is None else srt_meta(frame.path, k)
+    return {**logged, **meta}, bool(logged)
 
 
 def _resize(rgb: np.ndarray, boxes: list | None, w: int, h: int

@@ -27,6 +27,8 @@ import cv2
 import numpy as np
 
 from ..pipeline import Generator
+from ..report.realism.patches import empty_water
+from ..report.realism.sources import sky_mask
 from ..scene.config import GeneratorConfig
 from ..scene.sample import sample_scene
 from ..scene.water import WATER_TYPES
@@ -116,10 +118,12 @@ class Renderer:
     compositor's assets do not depend on the scene settings) and measures them; results
     are cached per config."""
 
-    def __init__(self, base: GeneratorConfig, sprites_dir: str | Path | None, n_render: int):
+    def __init__(self, base: GeneratorConfig, sprites_dir: str | Path | None, n_render: int,
+                 mask_sky: bool = False):
         self.base = water_only(base)
         self.gen = water_generator(self.base, sprites_dir)
         self.n_render = n_render
+        self.mask_sky = mask_sky  # keep the sky of oblique frames out, as the footage's
         self._cache: dict[str, tuple[dict, dict, list]] = {}
 
     def measure(self, config: GeneratorConfig, n: int | None = None, start: int = 0
@@ -133,12 +137,21 @@ class Renderer:
             rows, frames = [], []  # type: list[dict[str, float] | None], list[np.ndarray]
             for i in range(start, start + n):
                 rgb = self.render(config, i)
-                rows.append(image_stats(rgb))
+                rows.append(image_stats(rgb, self._water(config, i) if self.mask_sky else None))
                 if len(frames) < 4:
                     frames.append(rgb)
             per = stack(rows)
             self._cache[key] = (summary(per), per, frames)
         return self._cache[key]
+
+    def _water(self, config: GeneratorConfig, index: int) -> np.ndarray | None:
+        """(n,) bool grid patches below frame ``index``'s horizon (and its margin), None
+        looking straight down."""
+        scene = sample_scene(config, index, self.gen.model)
+        if scene.camera.pitch >= 90:
+            return None
+        m = scene.model
+        return empty_water((m.height, m.width), valid=sky_mask(m, scene.camera.pitch))
 
     def render(self, config: GeneratorConfig, index: int) -> np.ndarray:
         """(H, W, 3) uint8 RGB image ``index`` of ``config`` as its file would hold it (a
@@ -203,7 +216,7 @@ def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path | No
     camera and light; a round that changes nothing ends the search."""
     t0 = time.perf_counter()
     say = log or (lambda s: None)
-    r = Renderer(base, sprites_dir, n_render)
+    r = Renderer(base, sprites_dir, n_render, mask_sky=footage.sky_masked)
     default_summary, _, default_frames = r.measure(base)
     config, trials = base, []  # type: GeneratorConfig, list[Trial]
     config, votes, turb = _fit_water(r, config, footage, say)

@@ -267,10 +267,18 @@ def pinhole_record(model: CameraModel, altitude: float, pitch: float) -> dict:
             "height": model.height, "R_w2c": rot.tolist(), "t_w2c": t.tolist()}
 
 
+def sky_mask(model: CameraModel, pitch: float) -> np.ndarray:
+    """(H, W) bool, False on the sky of a frame of camera ``model`` looking ``pitch`` degrees
+    below the horizon: the rows above its horizon and :data:`REAL_SKY_MARGIN` of the height
+    below it (haze, hills, shores)."""
+    h, w = int(model.height), int(model.width)
+    top = horizon_row(model, pitch) + REAL_SKY_MARGIN * h
+    return np.repeat((np.arange(h) >= top)[:, None], w, axis=1)
+
+
 def _real_sky(fov: float, pitch: float) -> Callable:
     def valid(shape: tuple[int, int]):
         h, w = shape
-        top = horizon_row(CameraModel(w, h, fov, w, h), pitch) + REAL_SKY_MARGIN * h
-        mask = np.repeat((np.arange(h) >= top)[:, None], w, axis=1)
-        return mask, "sky excluded (from pitch and --real-fov, 5 % margin)"
+        return (sky_mask(CameraModel(w, h, fov, w, h), pitch),
+                "sky excluded (from pitch and --real-fov, 5 % margin)")
     return valid
