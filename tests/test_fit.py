@@ -264,6 +264,7 @@ def test_cli_help_is_listed_and_clear(capsys):
     (["{empty}", "--search", "colour"], "--search"),
     (["{empty}", "--out", "x.json"], ".toml"),
     (["{empty}", "--altitude"], "--altitude"),
+    (["{empty}", "--fov", "200"], "--fov 200"),
 ])
 def test_cli_bad_input_is_one_line(argv, needle, tmp_path, capsys):
     (tmp_path / "empty").mkdir()
@@ -281,11 +282,14 @@ def test_cli_writes_a_config_generate_reads(tmp_path, sprites_dir, capsys):
     make_footage(frames, {"water": ["turbid"], "wind": "2-4"}, sprites_dir)
     out = tmp_path / "fit" / "fitted.toml"
     rc, _, err = _cli([frames, "--out", out, "--sprites", sprites_dir, "--renders", 4,
-                       "--passes", 1, "--search", "sky,wind", "--altitude", 30, "-q"], capsys)
+                       "--passes", 1, "--search", "sky,wind", "--altitude", 30, "--fov", 70,
+                       "-q"], capsys)
     assert rc == 0, err
     config = GeneratorConfig.from_mapping(tomllib.loads(out.read_text()))
     assert config.width == SIZE and "turbid" in config.water
     assert str(config.altitude) == "30"
+    # --fov: the footage's frames are the camera's sensor
+    assert (config.camera, config.fov, config.sensor_px) == ("custom", 70.0, (SIZE, SIZE))
     from sdcomp.cli import main
 
     rc = run_cli(main, ["generate", "--config", str(out), "--dump-config"])

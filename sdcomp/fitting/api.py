@@ -35,10 +35,16 @@ def geometry_param(values: Sequence[float], digits: int = 0) -> str | None:
     return f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
 
 
-def base_config(footage: Footage, seed: int = 0) -> tuple[GeneratorConfig, str]:
-    """The defaults at the footage's working size, with its altitude and pitch where known;
-    and a line saying what geometry was fitted."""
+def base_config(footage: Footage, seed: int = 0, fov: float | None = None
+                ) -> tuple[GeneratorConfig, str]:
+    """The defaults at the footage's working size, with its altitude and pitch where known
+    and, given ``fov`` (the frames' diagonal field of view, degrees), a custom camera whose
+    frames are the footage's (``sensor_px`` its working size); and a line saying what
+    geometry was fitted."""
     base = GeneratorConfig(width=footage.width, height=footage.height, seed=seed)
+    if fov is not None:
+        base = with_settings(base, camera="custom", fov=round(float(fov), 2),
+                             sensor_px=(footage.width, footage.height))
     alt, pitch = geometry_param(footage.altitude), geometry_param(footage.pitch)
     if alt is not None:
         base = with_settings(base, altitude=alt)
@@ -52,6 +58,8 @@ def base_config(footage: Footage, seed: int = 0) -> tuple[GeneratorConfig, str]:
         how = (f"geometry from the footage: altitude {base.altitude} m"
                f"{'' if alt else ' (default: not known)'}, pitch {base.pitch} degrees"
                f"{'' if pitch else ' (default: not known)'}")
+    if fov is not None:
+        how += f"; camera: custom, {base.fov:g} degrees diagonally (--fov)"
     return base, how
 
 
@@ -72,7 +80,7 @@ def fit_footage(frames: str | Path, labels: str | Path | None = None,
     if log:
         log(f"footage: {footage.frames} frames measured at {footage.width} x "
             f"{footage.height} px")
-    base, how = base_config(footage, seed)
+    base, how = base_config(footage, seed, fov)
     result = search(footage, base, sprites_dir, n_render, groups, passes, log)
     config = replace(result.config, count=base.count, clutter=base.clutter, n=base.n)
     return FitResult(config, footage, result, how)

@@ -15,6 +15,9 @@ KEYS: tuple[tuple[str, str], ...] = (
     ("width", "frame size the footage was measured at (pixels); the look's noise, blur and "
               "compression are drawn for this output size"),
     ("height", ""),
+    ("camera", "the footage's field of view (--fov), its frames as the sensor"),
+    ("fov", ""),
+    ("sensor_px", ""),
     ("altitude", "metres"),
     ("pitch", "degrees below the horizon"),
     ("water", "water types whose rendered colour is nearest the footage's water colour"),
@@ -36,11 +39,14 @@ KEYS: tuple[tuple[str, str], ...] = (
 
 def config_text(config: GeneratorConfig, header: list[str], geometry_fitted: bool) -> str:
     """The TOML text of the fitted keys of ``config`` (see :data:`KEYS`), after ``header``
-    comment lines; altitude and pitch only when ``geometry_fitted``."""
+    comment lines; altitude and pitch only when ``geometry_fitted``, the camera only when
+    fitted (custom, from ``--fov``)."""
     values = config.to_dict()
     lines = [f"# {h}" for h in header] + [""]
     for key, comment in KEYS:
         if key in ("altitude", "pitch") and not geometry_fitted:
+            continue
+        if key in ("camera", "fov", "sensor_px") and values["camera"] != "custom":
             continue
         if comment:
             lines.append(f"# {comment}")
