@@ -162,17 +162,17 @@ def test_white_balance_and_exposure_fit_a_colour_cast(tmp_path, sprites_dir):
 def test_contrast_is_fitted_to_a_vivid_camera(tmp_path, sprites_dir):
     """Footage of a camera with a vivid profile (a steep tone curve, contrast 1.8, and
     saturation 1.4, above every look's draws) is fitted with a fixed contrast above the
-    looks' usual 1.15, and the loss falls under 0.7 times what the search reaches without
-    the contrast (measured: 35.5 against 72.8)."""
+    looks' usual 1.15, and the loss falls below what the look alone reaches (measured: 86.2
+    against 102.3 searching the look, then the contrast; with every setting searched, 35.5
+    against 72.8: docs/fit.md)."""
     make_footage(tmp_path / "vivid", {"water": ["coastal", "lake"], "wind": "2-6",
                                       "contrast": 1.8, "saturation": 1.4}, sprites_dir)
-    without = tuple(g for g in CANDIDATES if g != "contrast")
     runs = {name: fit_footage(tmp_path / "vivid", sprites_dir=sprites_dir, n_render=RENDERS,
                               passes=1, groups=groups)
-            for name, groups in (("with", None), ("without", without))}
+            for name, groups in (("with", ("look", "contrast")), ("without", ("look",)))}
     foot = runs["with"].footage.summary
     losses = {k: loss(r.search.summary, foot) for k, r in runs.items()}
-    assert losses["with"] < 0.7 * losses["without"], losses
+    assert losses["with"] < 0.9 * losses["without"], losses
     c = runs["with"].config
     assert c.contrast is not None and _low(c.contrast) > 1.15, c.to_dict()
     text = config_text(c, ["test"], False)
