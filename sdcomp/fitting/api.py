@@ -52,8 +52,8 @@ def base_config(footage: Footage, seed: int = 0, fov: float | None = None
         base = with_settings(base, pitch=pitch)
     if alt is None and pitch is None:
         how = ("geometry not fitted: no --altitude/--pitch and no altitude or gimbal pitch "
-               "in the labels' meta or the photos' DJI XMP; the defaults' altitude and "
-               "pitch are kept")
+               "in the labels' meta or the DJI flight logs (XMP, SRT); the defaults' "
+               "altitude and pitch are kept")
     else:
         how = (f"geometry from the footage: altitude {base.altitude} m"
                f"{'' if alt else ' (default: not known)'}, pitch {base.pitch} degrees"

@@ -31,7 +31,7 @@ XMP_HEAD = 1 << 17  #: bytes of a photo searched for DJI's XMP attributes
 DJI_XMP = {"RelativeAltitude": (ALTITUDE_KEY, 1.0), "GimbalPitchDegree": (PITCH_KEY, -1.0)}
 _XMP_VALUE = re.compile(rb'drone-dji:(RelativeAltitude|GimbalPitchDegree)\s*=\s*"([^"]*)"|'
                         rb'<drone-dji:(RelativeAltitude|GimbalPitchDegree)>([^<]*)<')
-MAX_SRT_BYTES = 64 << 20  #: larger subtitle files are not read (a day of 60 fps entries)
+MAX_SRT_BYTES = 64 << 20  #: larger subtitle files are not read (an hour at 30 fps: ~30 MB)
 _NUMBER = r"([-+]?\d+(?:\.\d+)?)"
 _TIME = r"(\d+):(\d\d):(\d\d)[,.](\d{1,3})"
 _SRT_SPAN = re.compile(_TIME + r"\s*-->\s*" + _TIME)
