@@ -447,3 +447,33 @@ def test_sky_of_oblique_footage_is_kept_out_with_its_field_of_view(tmp_path, spr
     assert abs(rendered["luminance"][1] - lum["masked"]) < 4, (rendered["luminance"], lum)
     with pytest.raises(UserError, match="--fov 200"):
         read_footage(tmp_path / "low", fov=200)
+
+
+def test_photos_exif_focal_length_gives_the_field_of_view(tmp_path, sprites_dir):
+    """Without --fov a photo's EXIF 35 mm equivalent focal length gives its field of view
+    (24 mm: 2 atan(43.27 / 48) = 84.06 degrees diagonally), so the sky of oblique photos
+    is kept out and the fitted camera takes it; photos without one leave it unknown."""
+    from PIL import Image
+
+    from sdcomp.fitting.api import base_config
+    from sdcomp.fitting.flightlog import photo_fov
+    from sdcomp.fitting.footage import read_footage
+
+    make_footage(tmp_path / "png", {"water": ["coastal"], "pitch": 20, "hills": 0.0,
+                                    "shore": 0.0}, sprites_dir)
+    (tmp_path / "exif").mkdir()
+    for src in sorted((tmp_path / "png").glob("*.jpg"))[:4]:
+        with Image.open(src) as im:
+            exif = Image.Exif()
+            exif.get_ifd(0x8769)[0xA405] = 24  # FocalLengthIn35mmFilm
+            im.save(tmp_path / "exif" / src.name, "JPEG", exif=exif, quality=95)
+    one = next((tmp_path / "exif").glob("*.jpg"))
+    assert abs(photo_fov(one) - 84.06) < 0.01
+    assert photo_fov(next((tmp_path / "png").glob("*.jpg"))) is None
+    foot = read_footage(tmp_path / "exif", pitch=20)
+    assert foot.fov == 84.1 and foot.sky_masked
+    assert any("from their EXIF" in n for n in foot.notes)
+    assert read_footage(tmp_path / "png", pitch=20, max_frames=4).fov is None
+    # fit_footage passes the footage's field of view to the base config
+    base, how = base_config(foot, 0, foot.fov)
+    assert (base.camera, base.fov) == ("custom", 84.1) and "EXIF" in how

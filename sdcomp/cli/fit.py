@@ -56,7 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fov", metavar="DEG", type=float, help="diagonal field of view of the "
                    "frames as stored, degrees (e.g. 72.8 for a Mavic 2 Pro's 4K video): "
                    "with a known pitch, the sky of oblique frames is kept out of the water "
-                   "statistics (default: unknown: sky counts as water)")
+                   "statistics (default: a photo's EXIF 35 mm focal length, else "
+                   "unknown: sky counts as water)")
     p.add_argument("--size", metavar="PX", type=int, help="long side of the frames as "
                    "measured and generated, pixels (default: the frames' own, at most 512)")
     p.add_argument("--max-frames", metavar="N", type=int, default=200, help="at most N "

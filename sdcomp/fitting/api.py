@@ -59,7 +59,7 @@ def base_config(footage: Footage, seed: int = 0, fov: float | None = None
                f"{'' if alt else ' (default: not known)'}, pitch {base.pitch} degrees"
                f"{'' if pitch else ' (default: not known)'}")
     if fov is not None:
-        how += f"; camera: custom, {base.fov:g} degrees diagonally (--fov)"
+        how += f"; camera: custom, {base.fov:g} degrees diagonally (--fov or the photos' EXIF)"
     return base, how
 
 
@@ -80,7 +80,7 @@ def fit_footage(frames: str | Path, labels: str | Path | None = None,
     if log:
         log(f"footage: {footage.frames} frames measured at {footage.width} x "
             f"{footage.height} px")
-    base, how = base_config(footage, seed, fov)
+    base, how = base_config(footage, seed, footage.fov)
     result = search(footage, base, sprites_dir, n_render, groups, passes, log)
     config = replace(result.config, count=base.count, clutter=base.clutter, n=base.n)
     return FitResult(config, footage, result, how)

@@ -11,6 +11,8 @@ take-off and the gimbal pitch of a frame, as SeaDronesSee-style meta
   (negative below the horizon, as in the XMP). :func:`srt_meta` gives a video frame the
   entry whose span holds the frame's middle (frame ``k`` at ``(k + 0.5) / fps`` seconds).
   The absolute ``altitude:`` / ``abs_alt:`` (above sea level, by GPS) is not read.
+- A photo's field of view comes from its EXIF 35 mm equivalent focal length
+  (``FocalLengthIn35mmFilm``, which DJI and most cameras write): :func:`photo_fov`.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ XMP_HEAD = 1 << 17  #: bytes of a photo searched for DJI's XMP attributes
 DJI_XMP = {"RelativeAltitude": (ALTITUDE_KEY, 1.0), "GimbalPitchDegree": (PITCH_KEY, -1.0)}
 _XMP_VALUE = re.compile(rb'drone-dji:(RelativeAltitude|GimbalPitchDegree)\s*=\s*"([^"]*)"|'
                         rb'<drone-dji:(RelativeAltitude|GimbalPitchDegree)>([^<]*)<')
+EXIF_IFD, FOCAL_35MM = 0x8769, 0xA405  #: EXIF sub-IFD and its FocalLengthIn35mmFilm tag
+FULL_FRAME_DIAGONAL = 43.267  #: mm: the diagonal of a 36 x 24 mm frame
 MAX_SRT_BYTES = 64 << 20  #: larger subtitle files are not read (an hour at 30 fps: ~30 MB)
 _NUMBER = r"([-+]?\d+(?:\.\d+)?)"
 _TIME = r"(\d+):(\d\d):(\d\d)[,.](\d{1,3})"
@@ -64,6 +68,26 @@ def dji_meta(path: Path) -> dict[str, float]:
         if math.isfinite(value):
             out[key] = sign * value
     return out
+
+
+def photo_fov(path: Path) -> float | None:
+    """The diagonal field of view (degrees) of the photo at ``path`` from its EXIF 35 mm
+    equivalent focal length ``f``: ``2 atan(43.27 / (2 f))``; None when it has none (or the
+    file cannot be read)."""
+    from PIL import Image  # Pillow comes with matplotlib
+
+    try:
+        with Image.open(path) as im:
+            tag = im.getexif().get_ifd(EXIF_IFD).get(FOCAL_35MM)
+    except (OSError, ValueError, SyntaxError):
+        return None
+    try:
+        f = float(tag) if tag is not None else 0.0
+    except (TypeError, ValueError):
+        return None
+    if not 1.0 <= f <= 5000.0:  # 0: unknown, as EXIF writes it
+        return None
+    return math.degrees(2.0 * math.atan(FULL_FRAME_DIAGONAL / (2.0 * f)))
 
 
 def srt_path(video: Path) -> Path | None:

@@ -17,7 +17,7 @@ from ..report.realism.patches import PATCH, empty_water
 from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
 from ..report.realism.sources import Frame, load_frame, load_real, sky_mask
 from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
-from .flightlog import dji_meta, srt_meta
+from .flightlog import dji_meta, photo_fov, srt_meta
 from .stats import image_stats as measure_image
 from .stats import stack, summary
 
@@ -34,7 +34,8 @@ class Footage:
     known (empty: not known), ``crops`` a few (h, w, 3) uint8 RGB frames at the working
     size for the report's picture, ``notes`` one-line facts for the report,
     ``sky_masked`` whether the sky of some frames was kept out (so the rendered frames'
-    is too)."""
+    is too), ``fov`` the frames' diagonal field of view (degrees: ``--fov``, else the
+    median of the photos' EXIF ones; None: unknown)."""
 
     per_image: dict[str, np.ndarray]
     summary: dict[str, tuple[float, float, float]]
@@ -46,6 +47,7 @@ class Footage:
     notes: list[str] = field(default_factory=list)
     frames: int = 0
     sky_masked: bool = False
+    fov: float | None = None
 
 
 def working_size(width: int, height: int, size: int | None) -> tuple[int, int]:
@@ -65,17 +67,12 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     """Measure the frames at ``path`` (a folder or file of photos and videos; at most
     ``max_frames``, a seeded choice). ``labels``: a COCO json or YOLO folder whose boxes are
     kept out of the statistics (and whose ``meta`` gives altitude and pitch); ``altitude``
-    / ``pitch`` override the meta; ``fov``: the frames' diagonal field of view (degrees),
-    with which the sky of a frame of known pitch is kept out of the water
+    / ``pitch`` override the meta; ``fov``: the frames' diagonal field of view (degrees;
+    default: a photo's EXIF one, :func:`~.flightlog.photo_fov`), with which the sky of a
+    frame of known pitch is kept out of the water
     (:func:`~sdcomp.report.realism.sources.sky_mask`). UserError when nothing can be read or
     measured."""
-    if size is not None and not PATCH <= size <= 4096:
-        raise UserError(f"--size {size} is out of range: use {PATCH} to 4096 pixels")
-    if max_frames < 1:
-        raise UserError(f"--max-frames {max_frames} must be at least 1")
-    if fov is not None and not 1 < fov < 170:
-        raise UserError(f"--fov {fov} is out of range: use 1 to 170 degrees (the frames' "
-                        f"diagonal field of view)")
+    _check_options(size, max_frames, fov)
     fs = load_real(path, labels, max_images=max_frames, seed=seed)
     if not fs.frames:
         raise UserError(f"{path}: no photos or videos found")
@@ -84,6 +81,7 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     rows: list[dict[str, float] | None] = []
     crops: list[np.ndarray] = []
     alts, pitches, unread, logs, skies = [], [], 0, 0, 0
+    fovs: list[float] = []
     for frame in fs.frames:
         loaded = load_frame(frame)
         if loaded is None:
@@ -93,9 +91,10 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
         logs += logged
         alts.append(num(meta, ALTITUDE_KEY))
         pitches.append(num(meta, PITCH_KEY))
-        seen = pitch if pitch is not None else pitches[-1]
-        valid = sky_mask(CameraModel(w, h, fov, w, h), seen) if (
-            fov is not None and seen is not None and 0 < seen < 90) else None
+        exif = None if fov is not None else _exif_fov(frame)
+        fovs += [exif] if exif is not None else []
+        valid = _below_horizon(w, h, fov if fov is not None else exif,
+                               pitch if pitch is not None else pitches[-1])
         skies += valid is not None and not valid.all()
         rgb, boxes = _resize(loaded.rgb, frame.boxes, w, h)
         rows.append(measure_image(rgb, empty_water((h, w), None, boxes, valid)))
@@ -108,16 +107,27 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     out = Footage(per, summary(per), w, h, crops=crops, frames=per["luminance"].size)
     out.altitude = _geometry(altitude, alts, ALTITUDE_RANGE, "altitude")
     out.pitch = _geometry(pitch, pitches, PITCH_RANGE, "pitch")
-    out.notes = [*fs.notes, f"measured at {w} x {h} px"]
-    if logs:
-        out.notes.append(f"altitude or pitch of {logs} frames from flight logs (DJI XMP, "
-                         f"SRT)")
     out.sky_masked = skies > 0
-    if skies:
-        out.notes.append(f"sky kept out of {skies} frames (their pitch and --fov {fov:g})")
-    if unread:
-        out.notes.append(f"{unread} frames could not be read")
+    out.fov = fov if fov is not None else (
+        round(float(np.median(fovs)), 1) if fovs else None)
+    out.notes = [*fs.notes, f"measured at {w} x {h} px"] + [note for n, note in (
+        (logs, f"altitude or pitch of {logs} frames from flight logs (DJI XMP, SRT)"),
+        (len(fovs), f"field of view of {len(fovs)} photos from their EXIF (35 mm equivalent "
+                    f"focal length): {out.fov} degrees diagonally"),
+        (skies, f"sky kept out of {skies} frames (their pitch and field of view)"),
+        (unread, f"{unread} frames could not be read")) if n]
     return out
+
+
+def _check_options(size: int | None, max_frames: int, fov: float | None) -> None:
+    """UserError naming a bad ``--size``, ``--max-frames`` or ``--fov``."""
+    if size is not None and not PATCH <= size <= 4096:
+        raise UserError(f"--size {size} is out of range: use {PATCH} to 4096 pixels")
+    if max_frames < 1:
+        raise UserError(f"--max-frames {max_frames} must be at least 1")
+    if fov is not None and not 1 < fov < 170:
+        raise UserError(f"--fov {fov} is out of range: use 1 to 170 degrees (the frames' "
+                        f"diagonal field of view)")
 
 
 def _frame_meta(frame: Frame) -> tuple[dict, bool]:
@@ -131,6 +141,23 @@ def _frame_meta(frame: Frame) -> tuple[dict, bool]:
     k = frame.source.frame
     logged = dji_meta(frame.path) if k is None else srt_meta(frame.path, k)
     return {**logged, **meta}, bool(logged)
+
+
+def _exif_fov(frame: Frame) -> float | None:
+    """A photo's diagonal field of view from its EXIF (:func:`~.flightlog.photo_fov`); None
+    for a video frame or a photo without one."""
+    s = frame.source
+    return None if s is None or s.frame is not None else photo_fov(frame.path)
+
+
+def _below_horizon(w: int, h: int, fov: float | None, pitch: float | None
+                   ) -> np.ndarray | None:
+    """(h, w) bool, False on the sky (:func:`~sdcomp.report.realism.sources.sky_mask`) of a
+    w x h frame of diagonal field of view ``fov`` at ``pitch`` degrees; None when either is
+    unknown or the frame looks straight down."""
+    if fov is None or pitch is None or not 0 < pitch < 90:
+        return None
+    return sky_mask(CameraModel(w, h, fov, w, h), pitch)
 
 
 def _resize(rgb: np.ndarray, boxes: list | None, w: int, h: int
