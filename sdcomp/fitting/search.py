@@ -31,6 +31,7 @@ from ..report.realism.patches import empty_water
 from ..report.realism.sources import sky_mask
 from ..scene.config import GeneratorConfig
 from ..scene.sample import sample_scene
+from ..scene.scene import Scene
 from ..scene.water import WATER_TYPES
 from .footage import Footage
 from .stats import image_stats, loss, stack, summary
@@ -136,27 +137,27 @@ class Renderer:
         if key not in self._cache:
             rows, frames = [], []  # type: list[dict[str, float] | None], list[np.ndarray]
             for i in range(start, start + n):
-                rgb = self.render(config, i)
-                rows.append(image_stats(rgb, self._water(config, i) if self.mask_sky else None))
+                scene = sample_scene(config, i, self.gen.model)
+                rgb = self.render(config, scene)
+                rows.append(image_stats(rgb, self._water(scene) if self.mask_sky else None))
                 if len(frames) < 4:
                     frames.append(rgb)
             per = stack(rows)
             self._cache[key] = (summary(per), per, frames)
         return self._cache[key]
 
-    def _water(self, config: GeneratorConfig, index: int) -> np.ndarray | None:
-        """(n,) bool grid patches below frame ``index``'s horizon (and its margin), None
-        looking straight down."""
-        scene = sample_scene(config, index, self.gen.model)
+    @staticmethod
+    def _water(scene: Scene) -> np.ndarray | None:
+        """(n,) bool grid patches below ``scene``'s horizon (and its margin), None looking
+        straight down."""
         if scene.camera.pitch >= 90:
             return None
         m = scene.model
         return empty_water((m.height, m.width), valid=sky_mask(m, scene.camera.pitch))
 
-    def render(self, config: GeneratorConfig, index: int) -> np.ndarray:
-        """(H, W, 3) uint8 RGB image ``index`` of ``config`` as its file would hold it (a
-        JPEG round trip at the scene's quality for ``image_format`` jpg)."""
-        scene = sample_scene(config, index, self.gen.model)
+    def render(self, config: GeneratorConfig, scene: Scene) -> np.ndarray:
+        """(H, W, 3) uint8 RGB image of ``scene`` (drawn from ``config``) as its file would
+        hold it (a JPEG round trip at the scene's quality for ``image_format`` jpg)."""
         image = self.gen.render_scene(scene).image
         if config.image_format != "jpg":
             return image
