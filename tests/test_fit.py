@@ -358,15 +358,20 @@ def test_dji_xmp_gives_geometry(tmp_path):
     assert read_footage(tmp_path / "png").altitude == []
 
 
+def _video(tmp_path, name: str) -> Path:
+    """A 6-frame 128 x 128 MJPG video at 10 frames/s of plain water frames."""
+    path = tmp_path / name
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (128, 128))
+    for f in _plain_frames(tmp_path / "png", 6, 128):
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+    return path
+
+
 def test_video_frames_are_read(tmp_path):
     from sdcomp.fitting.footage import read_footage
 
-    frames = _plain_frames(tmp_path / "png", 6, 128)
-    path = tmp_path / "clip.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (128, 128))
-    for f in frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    writer.release()
+    path = _video(tmp_path, "clip.avi")
     foot = read_footage(path, max_frames=4)
     assert foot.frames == 4 and (foot.width, foot.height) == (128, 128)
 
@@ -388,12 +393,7 @@ def test_video_srt_log_gives_geometry_per_frame(tmp_path):
     geometry is unknown; the absolute (GPS) altitude is never taken."""
     from sdcomp.fitting.footage import read_footage
 
-    frames = _plain_frames(tmp_path / "png", 6, 128)
-    path = tmp_path / "DJI_0042.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (128, 128))
-    for f in frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    writer.release()
+    path = _video(tmp_path, "DJI_0042.avi")
     assert read_footage(path).altitude == []
     text = [f'<font size="28">FrameCnt: {k + 1}, DiffTime: 100ms\n2024-06-01 12:00:00.{k}\n'
             f"[iso: 100] [shutter: 1/1000.0] [latitude: 47.67] [longitude: 9.26] "
