@@ -133,7 +133,8 @@ def test_weights_are_checked_and_kept_in_config_files():
                                       {"mesh": "buoy", "category": "buoy"}]
     assert GeneratorConfig.from_mapping({"objects": c.to_dict()["objects"]}) == c
     with pytest.raises(UserError,
-                       match="unknown key 'colour'; use mesh, category, weight, frame and size"):
+                       match="unknown key 'colour'; use mesh, category, weight, frame, size and "
+                             "size_weight"):
         GeneratorConfig(objects=[{"mesh": "boat", "colour": "red"}])
 
 
@@ -145,6 +146,34 @@ def test_box_sizes_are_checked_and_kept_in_config_files():
                                   "size": [0.01, 0.02, 0.05]}])
     assert c.to_dict()["objects"][0]["size"] == [0.01, 0.02, 0.05]
     assert GeneratorConfig.from_mapping(c.to_dict()) == c
+
+
+def test_size_weights_are_checked_kept_and_drawn_by():
+    """``size_weight``: one positive weight per interval between neighbouring sizes, kept
+    in config files; each interval is drawn as often as its share of the weights, evenly
+    within it, and without weights the draw is the quantiles' own (linear between them)."""
+    from sdcomp.scene.objects import draw_size
+
+    size = (0.01, 0.02, 0.05)
+    for bad in ([1.0], [1.0, 2.0, 3.0], [1.0, 0.0], [1.0, -2.0], [1.0, float("inf")],
+                [1.0, float("nan")], "x", [1.0, "a"]):
+        with pytest.raises(SettingError, match="size_weight .* must be 2 positive numbers"):
+            ObjectSpec("boat", size=size, size_weight=bad)
+    with pytest.raises(SettingError, match=r"size_weight .* positive numbers \(with size given\)"):
+        ObjectSpec("boat", size_weight=[1.0, 2.0])
+    c = GeneratorConfig(objects=[{"mesh": "boat", "size": list(size), "size_weight": [3, 1]}])
+    assert c.to_dict()["objects"][0]["size_weight"] == [3.0, 1.0]
+    assert GeneratorConfig.from_mapping(c.to_dict()) == c
+    assert "size_weight" not in GeneratorConfig(objects=[{"mesh": "boat", "size": list(
+        size)}]).to_dict()["objects"][0]
+    t = (np.arange(4000) + 0.5) / 4000
+    even = np.array([draw_size(size, None, x) for x in t])
+    assert np.allclose(even, np.interp(t, [0, 0.5, 1], size))
+    weighted = np.array([draw_size(size, (3.0, 1.0), x) for x in t])
+    assert abs(np.mean(weighted < 0.02) - 0.75) < 1e-3  # the first interval: 3 of 4
+    low = weighted[weighted < 0.02]
+    assert abs(np.median(low) - 0.015) < 1e-4 and low.min() >= 0.01  # even within it
+    assert weighted.max() <= 0.05 and np.all(np.diff(weighted) >= 0)  # monotone in t
 
 
 def test_objects_with_box_sizes_are_placed_where_they_show_them(sprites_dir):

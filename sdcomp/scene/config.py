@@ -344,11 +344,13 @@ class GeneratorConfig:
             v = getattr(self, f.name)
             if isinstance(v, Param):
                 v = v.to_json()
-            elif f.name == "objects":  # weight, frame, size only where set (as before them)
+            elif f.name == "objects":  # weight, frame, size(_weight) where set
                 v = [{"mesh": o.mesh, "category": o.category}
                      | ({"weight": o.weight} if o.weight != 1.0 else {})
                      | ({"frame": list(o.frame)} if o.frame is not None else {})
-                     | ({"size": list(o.size)} if o.size is not None else {}) for o in v]
+                     | ({"size": list(o.size)} if o.size is not None else {})
+                     | ({"size_weight": list(o.size_weight)} if o.size_weight else {})
+                     for o in v]
             elif isinstance(v, tuple):
                 v = list(v)
             out[f.name] = v

@@ -66,19 +66,27 @@ class ObjectSpec:
     their meaning when the frame is cropped or resized), or None; where given,
     each object draws a size from them and is placed, within its frame part, on the image
     row at which it shows about that size (as far as the view allows: a straight-down view
-    has one scale)."""
+    has one scale). ``size_weight``: how often each interval between two neighbouring
+    quantiles of ``size`` is drawn, relative to the others (None: evenly, as quantiles
+    are): a size that few views can show is drawn again in those that cannot, so the
+    sizes shown lean to those most views can; more weight on it gives it back its share
+    (:func:`draw_size`)."""
 
     mesh: str = "bluerov2"
     category: str = ""
     weight: float = 1.0
     frame: tuple[float, float, float, float] | None = None
     size: tuple[float, ...] | None = None
+    size_weight: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.frame is not None:
             object.__setattr__(self, "frame", _frame(self.frame))
         if self.size is not None:
             object.__setattr__(self, "size", _size(self.size))
+        if self.size_weight is not None:
+            object.__setattr__(self, "size_weight", _size_weight(self.size_weight,
+                                                                 self.size))
         if not isinstance(self.mesh, str) or not self.mesh.strip() or "\0" in self.mesh:
             raise SettingError("object", "{name} needs a built-in mesh name (bluerov2, "
                                          "bluerov2-heavy, swimmer, boat, jetski, "
@@ -111,6 +119,36 @@ def _size(v: Any) -> tuple[float, ...]:
     return q
 
 
+def _size_weight(v: Any, size: tuple[float, ...] | None) -> tuple[float, ...]:
+    """``v`` as weights of the intervals between the quantiles ``size``: one positive
+    number per interval (SettingError otherwise, or where ``size`` is None)."""
+    n = len(size) - 1 if size is not None else 0
+    try:
+        w = tuple(float(x) for x in v)
+    except (TypeError, ValueError):
+        w = ()
+    if not n or len(w) != n or not all(0.0 < x < math.inf for x in w):
+        many = f"{n} positive numbers" if n else "positive numbers (with size given)"
+        raise SettingError("size_weight", f"{{name}} {v!r} must be {many}, one per interval "
+                                          f"between neighbouring sizes (e.g. [2, 1] for "
+                                          f"size [0.005, 0.012, 0.03])")
+    return w
+
+
+def draw_size(size: tuple[float, ...], weight: tuple[float, ...] | None, t: float) -> float:
+    """The box size (over the focal length) that the uniform draw ``t`` in [0, 1) picks
+    from the quantiles ``size`` (at evenly spaced probabilities, linear between them),
+    each interval between two drawn with its ``weight`` (None: evenly, the quantiles'
+    own distribution)."""
+    q = np.asarray(size, np.float64)
+    if weight is None:
+        return float(np.interp(t, np.linspace(0.0, 1.0, len(q)), q))
+    edges = np.concatenate([[0.0], np.cumsum(weight)]) / sum(weight)
+    k = min(int(np.searchsorted(edges, t, "right")) - 1, len(weight) - 1)
+    frac = (t - edges[k]) / max(edges[k + 1] - edges[k], 1e-12)
+    return float(q[k] + (q[k + 1] - q[k]) * min(max(frac, 0.0), 1.0))
+
+
 def _frame(v: Any) -> tuple[float, float, float, float]:
     """``v`` as a frame part ``(u0, v0, u1, v1)``: four numbers in [0, 1], u0 < u1 and
     v0 < v1 (SettingError otherwise)."""
@@ -127,14 +165,14 @@ def _frame(v: Any) -> tuple[float, float, float, float]:
 
 def object_spec(o: Any) -> ObjectSpec:
     """An :class:`ObjectSpec` from a spec, a mesh name or a {mesh, category, weight, frame,
-    size} table (UserError for another key, SettingError for a bad value)."""
+    size, size_weight} table (UserError for another key, SettingError for a bad value)."""
     if isinstance(o, str):
         return ObjectSpec(o)
     if isinstance(o, dict):
-        unknown = set(o) - {"mesh", "category", "weight", "frame", "size"}
+        unknown = set(o) - {"mesh", "category", "weight", "frame", "size", "size_weight"}
         if unknown:
             raise UserError(f"objects: unknown key {sorted(map(str, unknown))[0]!r}; "
-                            f"use mesh, category, weight, frame and size")
+                            f"use mesh, category, weight, frame, size and size_weight")
         return ObjectSpec(**o)
     if not isinstance(o, ObjectSpec):
         raise SettingError("object", f"{{name}} {o!r} is not a mesh name or path")

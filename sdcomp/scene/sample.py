@@ -20,6 +20,7 @@ from .look_table import sample_look
 from .objects import (
     CLUTTER_PREFIX,
     clutter_assets,
+    draw_size,
     footprint_radius,
     low_enough,
     object_assets,
@@ -182,7 +183,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
             k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
             spec = config.objects[k]
             p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
-                       spec.frame, spec.size, taken)
+                       spec.frame, (spec.size, spec.size_weight), taken)
             if p is not None or spec.size is None:
                 break
             # an object that cannot show its sizes in this view (a boat under a low drone
@@ -252,7 +253,7 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
            pose: CameraPose, shore: Shore | None, role: Role, assets: tuple[str, ...],
            category_id: int, tint: tuple[float, float, float] = (1.0, 1.0, 1.0),
            frame: tuple[float, float, float, float] | None = None,
-           size: tuple[float, ...] | None = None,
+           size: tuple[tuple[float, ...] | None, tuple[float, ...] | None] = (None, None),
            taken: list[tuple[float, float, float]] | None = None) -> Placement | None:
     """A random placement seen in the frame (possibly cut by its edge), on water, its
     footprint's disc clear of those in ``taken`` ((x, y, radius) metres; the new one's
@@ -260,8 +261,8 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     ``tint``; clutter is one of its kind's ``assets`` (variants), or its one mesh in a
     random shade. Its centre lies in the image part ``frame`` (fractions (u0, v0, u1, v1)),
     or anywhere in the frame up to :data:`EDGE_MARGIN` outside it; with box-size quantiles
-    ``size`` (over the focal length), on the row of that part where it shows a size drawn
-    from them (:func:`_row_for_size`)."""
+    ``size[0]`` (over the focal length) and their intervals' weights ``size[1]``, on the row
+    of that part where it shows a size drawn from them (:func:`_row_for_size`)."""
     u0, v0 = rng.random(), rng.random()
     heading = rng.uniform(0, 360)
     roll, pitch = rng.uniform(-1, 1, 2) * config.tilt
@@ -276,15 +277,14 @@ def _place(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel
     # foam patches lie flat on the water: objects float in them, they keep no disc
     radius = None if asset.removeprefix(CLUTTER_PREFIX) == "foam" else footprint_radius(asset)
     target = None
-    if size is not None and frame is None:
+    quantiles, size_weight = size
+    if quantiles is not None and frame is None:
         frame = (0.0, 0.0, 1.0, 1.0)  # a size needs rows to choose from: the whole frame
     for attempt in range(8):
         if attempt:
             u0, v0 = rng.random(), rng.random()
-        if size is not None:  # the box size to show, pixels
-            q = np.asarray(size, np.float64)
-            target = float(np.interp(rng.random(), np.linspace(0.0, 1.0, len(q)), q)) * \
-                model.fx
+        if quantiles is not None:  # the box size to show, pixels
+            target = draw_size(quantiles, size_weight, rng.random()) * model.fx
         uv = _image_point(model, pose, frame, u0, v0, target, asset, heading)
         if uv is None:  # not at that size in this view: another draw
             continue
