@@ -62,8 +62,8 @@ def test_swimmers_are_as_dark_against_their_water_as_real_ones(stats):
     assert s["contrast"]["median"] <= -1.0, s
 
 
-@pytest.mark.xfail(reason="measured here: swimmer bright share 0.012 over these 520 "
-                          "images, 0.012 over 520 with seed 1 (real 0.06, bound 0.04 from "
+@pytest.mark.xfail(reason="measured here: swimmer bright share 0.015 over these 520 "
+                          "images, 0.013 over 520 with seed 1 (real 0.06, bound 0.04 from "
                           "it); real boxes hold sun glints and splash the water around a "
                           "swimmer does not draw yet (sdcomp's water glints less than real "
                           "footage), and one swimmer in five wears a bright life jacket",
@@ -73,11 +73,14 @@ def test_swimmers_hold_as_many_bright_pixels_as_real_ones(stats):
     assert abs(s["bright_share"]["median"] - REAL_SWIMMER["bright_share"]) <= 0.04, s
 
 
-@pytest.mark.xfail(reason="measured here: boat bright share 0.36 over these 520 images "
-                          "(85 boats; 0.34 of 97 while flat views were drawn at 15 degrees), "
-                          "0.37 over 520 with seed 1 (real 0.48, bound 0.1): "
-                          "hulls' shaded sides, dark decks and the water in an oblique hull's "
-                          "box", strict=False)
+@pytest.mark.xfail(reason="measured here: boat bright share 0.37 over these 520 images "
+                          "(79 boats; 0.36 of 85 while 5 of the 13 hull colours were dark, "
+                          "0.34 of 97 while flat views were drawn at 15 degrees), 0.42 of 81 "
+                          "with seed 1 (real 0.48, bound 0.1): the grey RIB (0.08 of 11), "
+                          "the wooden rowing boat and kayak, and views under 30 degrees "
+                          "(0.25 of 25), where the water mirrors the bright sky near the "
+                          "horizon as brightly as a white hull's shaded side",
+                   strict=False)
 def test_boats_are_as_bright_as_real_ones(stats):
     s = stats["boat"]
     assert abs(s["bright_share"]["median"] - REAL_BOAT_BRIGHT) <= 0.1, s

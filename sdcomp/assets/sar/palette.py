@@ -79,12 +79,13 @@ VESTS: tuple[RGB, ...] = ((245, 100, 20), (245, 100, 20), (240, 195, 20), (205, 
 RESCUE_TUBES: tuple[RGB, ...] = ((205, 30, 30), (205, 30, 30), (245, 100, 20), (240, 195, 20))
 
 # Boats and personal watercraft
-# hulls: white gelcoat on three in four leisure boats (off-white and light grey among them),
-# the rest navy, black, red, blue or green
+# hulls: white gelcoat on three in four leisure boats (off-white and light grey among them:
+# "the vast majority of boats are white", builders mould coloured hulls at extra cost and
+# light grey "holds up better"), the rest navy, black, red, blue or green
 HULLS: tuple[RGB, ...] = (
-    (238, 238, 232), (238, 238, 232), (238, 238, 232), (238, 238, 232), (238, 238, 232),
-    (225, 225, 215), (232, 230, 222), (200, 200, 195), (30, 45, 85), (35, 35, 38),
-    (165, 30, 35), (40, 95, 160), (20, 90, 80),
+    *((238, 238, 232),) * 10, (225, 225, 215), (225, 225, 215), (232, 230, 222),
+    (232, 230, 222), (200, 200, 195), (30, 45, 85), (35, 35, 38), (165, 30, 35),
+    (40, 95, 160), (20, 90, 80),
 )
 ANTIFOULING: tuple[RGB, ...] = ((35, 35, 38), (150, 35, 30), (30, 45, 90), (235, 235, 230))
 DECKS: tuple[RGB, ...] = ((232, 232, 226), (225, 220, 205), (200, 195, 185), (150, 110, 70))
