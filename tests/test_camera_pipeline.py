@@ -111,10 +111,11 @@ def test_motion_probability_switches_motion_blur():
 
 
 def test_exposure_and_white_balance_set_by_the_user():
-    """--exposure-bias, --wb-red, --wb-blue, --contrast and --saturation replace the look's
-    draws of exposure_ev, wb_red, wb_blue, contrast and saturation (a range, a value or a
-    list, whatever the preset, clean too); every other parameter and the scene's other
-    draws stay those of the default config."""
+    """--exposure-bias, --wb-red, --wb-blue, --contrast, --saturation, --shot-noise and
+    --sharpening replace the look's draws of exposure_ev, wb_red, wb_blue, contrast,
+    saturation, noise_a and sharpen_amount (a range, a value or a list, whatever the
+    preset, clean too); every other parameter and the scene's other draws stay those of
+    the default config."""
     import sdcomp.scene.sample as S
     from sdcomp.errors import SettingError
     from sdcomp.scene.config import GeneratorConfig
@@ -122,8 +123,10 @@ def test_exposure_and_white_balance_set_by_the_user():
     base = GeneratorConfig()
     mine = GeneratorConfig.from_mapping({"exposure_bias": "-1:-0.5", "wb_red": 1.4,
                                          "wb_blue": [0.7, 0.8], "contrast": 1.7,
-                                         "saturation": "0.4-0.6"})
-    changed = {"exposure_ev", "wb_red", "wb_blue", "contrast", "saturation"}
+                                         "saturation": "0.4-0.6", "shot_noise": 0.02,
+                                         "sharpening": 0})
+    changed = {"exposure_ev", "wb_red", "wb_blue", "contrast", "saturation", "noise_a",
+               "sharpen_amount"}
     targets = []
     for i in range(40):
         a, b = S.sample_scene(base, i), S.sample_scene(mine, i)
@@ -133,6 +136,7 @@ def test_exposure_and_white_balance_set_by_the_user():
                 assert getattr(a.look, name) == getattr(b.look, name), name
         assert b.look.wb_red == 1.4 and b.look.wb_blue in (0.7, 0.8)
         assert b.look.contrast == 1.7 and 0.4 <= b.look.saturation <= 0.6
+        assert b.look.noise_a == 0.02 and b.look.sharpen_amount == 0.0
         # the bias is folded into the water's exposure target (sample.expose)
         targets.append(math.log2(b.water.exposure_target / b.look.ae_target))
     assert -1.0 - 1e-9 <= min(targets) < -0.9 and -0.6 < max(targets) <= -0.5 + 1e-9
@@ -145,6 +149,10 @@ def test_exposure_and_white_balance_set_by_the_user():
         GeneratorConfig.from_mapping({"wb_red": 0.0})
     with pytest.raises(SettingError, match="0.5 to 2.5"):
         GeneratorConfig.from_mapping({"contrast": 3})
+    with pytest.raises(SettingError, match="0 to 0.1"):
+        GeneratorConfig.from_mapping({"shot_noise": 0.5})
+    with pytest.raises(SettingError, match="0 to 3"):
+        GeneratorConfig.from_mapping({"sharpening": -1})
 
 
 def test_video_quality_comes_from_bits_per_pixel():

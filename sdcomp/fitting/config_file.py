@@ -30,6 +30,7 @@ KEYS: tuple[tuple[str, str], ...] = (
     ("wb_red", "white balance gains (colour cast); unset: the look's draws"),
     ("wb_blue", ""),
     ("contrast", "tone curve contrast (luminance spread); unset: the look's draws"),
+    ("shot_noise", "sensor shot noise (noise); unset: the look's draws"),
     ("recording", "video (H.264/H.265 frames) or photo (JPEG)"),
     ("jpeg_quality", "compression of the written files (blockiness)"),
     ("motion_blur", "probability of motion blur (sharpness)"),

@@ -9,8 +9,8 @@ Two steps, repeated once the camera is known:
    least :data:`TYPE_SHARE` of the frames are kept, and the turbidity range covers the
    10th to 90th percentile of their frames' turbidities;
 2. a coordinate search over candidate values of the other settings (the camera's look,
-   exposure bias, white balance, contrast and recording, JPEG quality, sky, sun elevation,
-   wind, motion and defocus blur): each
+   exposure bias, white balance, contrast, shot noise and recording, JPEG quality,
+   sky, sun elevation, wind, motion and defocus blur): each
    candidate config renders the same ``n_render`` water-only frames (seeded, no objects)
    and the candidate whose statistics' :func:`~.stats.loss` to the footage's is lowest is
    kept.
@@ -54,6 +54,11 @@ CANDIDATES: dict[str, list[dict]] = {
     # the tone curve's contrast: unset or fixed (saturation is not searched: on water-only
     # frames the water type and white balance reach it)
     "contrast": [{"contrast": v} for v in (None, 0.7, 0.85, 1.0, 1.15, 1.35, 1.6, 1.9)],
+    # the sensor's shot noise: unset or fixed, from the looks' top (6e-4, under the
+    # compression's floor at these sizes) to a dim scene's (the in-camera sharpening is not
+    # searched: drawn at the native scale, at the fit's sizes it moves the sharpness by
+    # 0.01, under the frames' own spread)
+    "noise": [{"shot_noise": v} for v in (None, 2e-3, 6e-3, 0.02, 0.06)],
     "recording": [{"recording": v} for v in ("video", "photo")],
     "jpeg_quality": [{"jpeg_quality": v} for v in ("90-95", "75-90", "50-75", "96-100")],
     "blur": [{"motion_blur": m, "defocus_blur": d}

@@ -35,6 +35,7 @@ from .objects import (
 from .params import Param
 from .presets import PRESETS, preset
 from .settings import (
+    RETIRED,
     check_float,
     int_pair,
     label_formats,
@@ -55,17 +56,8 @@ MAX_INSTANCES = 999  # objects of interest per image (annotation ids reserve 3 d
 #: settings that replace one parameter of the camera look's per-image draw, when set
 #: (config field -> :data:`sdcomp.scene.look_table.PARAMS` name)
 LOOK_SETTINGS = {"exposure_bias": "exposure_ev", "wb_red": "wb_red", "wb_blue": "wb_blue",
-                 "contrast": "contrast", "saturation": "saturation"}
-#: fields of earlier versions and what took their place: a config naming one still loads
-#: (with a warning), the value is not used
-RETIRED = {
-    "ambient": "the sky model sets the light from the sky",
-    "white_balance": "--wb-red and --wb-blue set it (--look draws it by default)",
-    "noise": "--look draws the sensor noise per image",
-    "vignetting": "--look draws the vignetting per image",
-    "exposure": "the camera exposes automatically; --exposure-bias sets its bias",
-    "rocks": "the sea floor is sand (--shallow, --floor-depth)",
-}
+                 "contrast": "contrast", "saturation": "saturation", "shot_noise": "noise_a",
+                 "sharpening": "sharpen_amount"}
 
 
 @dataclass(frozen=True)
@@ -215,6 +207,13 @@ class GeneratorConfig:
                                      0.5, 2.5)
     saturation: Param | None = setting(None, "param", "colour saturation (1 as recorded, 0 "
                                        "grey) per image; unset: --look's draw", "S", 0.0, 2.5)
+    shot_noise: Param | None = setting(None, "param", "sensor shot noise: variance A x of a "
+                                       "linear signal x in 0-1 at the sensor's scale (the "
+                                       "looks draw 2.5e-5 to 6e-4) per image; unset: --look's "
+                                       "draw", "A", 0.0, 0.1)
+    sharpening: Param | None = setting(None, "param", "in-camera sharpening: the unsharp "
+                                       "mask's amount (the looks draw 0.3-1.2; 0 none) per "
+                                       "image; unset: --look's draw", "S", 0.0, 3.0)
     recording: str = setting("video", "custom", "what the camera records: video (4K H.264/"
                              "H.265 frames) or photo (full-resolution JPEG)", "video|photo")
     motion_blur: float = setting(0.5, "float", "probability of motion blur along the flight",

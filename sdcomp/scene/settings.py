@@ -21,6 +21,16 @@ from typing import Any
 from ..errors import SettingError, UserError
 from .params import Param, parse_param
 
+#: fields of earlier versions and what took their place: a config naming one still loads
+#: (with a warning), the value is not used
+RETIRED = {
+    "ambient": "the sky model sets the light from the sky",
+    "white_balance": "--wb-red and --wb-blue set it (--look draws it by default)",
+    "noise": "--look draws the sensor noise per image (--shot-noise fixes its shot noise)",
+    "vignetting": "--look draws the vignetting per image",
+    "exposure": "the camera exposes automatically; --exposure-bias sets its bias",
+    "rocks": "the sea floor is sand (--shallow, --floor-depth)",
+}
 #: kinds of :class:`Setting` whose check is :meth:`Setting.check`; "custom" fields are
 #: checked by the config itself
 KINDS = ("param", "float", "int", "bool", "path", "custom")
