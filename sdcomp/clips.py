@@ -123,7 +123,7 @@ class ClipGenerator:
         """The metadata of frame ``k``: the still's (:func:`image_meta`) with the flight's
         under SeaDronesSee's key names (speeds m/s, DJI headings: degrees clockwise from
         north), a GPS-like position (the flight's offset from the config's latitude and
-        longitude, by default Lake Constance, where SeaDronesSee was filmed) and the
+        longitude, by default Lake Constance, where a third of SeaDronesSee was filmed) and the
         timestamp (ms)."""
         st = seq.camera(k)
         meta = image_meta(info)

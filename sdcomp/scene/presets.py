@@ -109,9 +109,10 @@ SDS_SIZE_WEIGHTS = {
 #: the ``seadronessee`` preset: categories in SeaDronesSee's id order (swimmer 1, boat 2,
 #: jetski 3, life_saving_appliances 4, buoy 5), weighted by its annotation counts and placed
 #: where its boxes lie in the frame (:data:`SDS_FRAMES`) at the distance where they show
-#: its box sizes (:data:`SDS_SIZES`); green coastal water as its frames show it (Lake
-#: Constance, where it was filmed, near the shore and in summer: Secchi depths of 2.5-6 m,
-#: below the open lake's 6-10 m; a swimmer's body below the shoulders is lost in it), the
+#: its box sizes (:data:`SDS_SIZES`); green coastal water as its frames show it (of its
+#: 1030 4K frames with flight metadata, 695 are over the North Sea's coast, August 2021,
+#: and 335 over Lake Constance near the shore, August 2020: turbid summer water, Secchi
+#: depths of a few metres; a swimmer's body below the shoulders is lost in it), the
 #: ``coastal`` water type at turbidity 0.5-1.0 (chlorophyll 1.4-4 mg/m^3, CDOM 0.14-0.4
 #: /m, sediment 1.4-4 g/m^3: an object keeps half its image 0.2-0.5 m down, see
 #: :data:`~sdcomp.scene.objects.VISIBLE_DEPTH`); mostly open, deep water (a sandy
