@@ -96,9 +96,10 @@ SDS_SIZES = {
 #: jet skis, 2.5 at p50 for buoys); fitted by ``tools/fit_size_weights.py`` (6 rounds of
 #: 6000 scenes: placed at 0.98-1.11 of SeaDronesSee's at p10 ... p90, another seed).
 #: Swimmers and life-saving appliances are drawn evenly: their boxes come out at 1.05 and
-#: 0.92 of the size placed for (the mask keeps what shows under the water: a swimmer's
-#: arms, not an appliance's submerged rim), which the lean makes up for (boxes at 0.85-1.05
-#: of SeaDronesSee's); with fitted weights swimmers came out at 1.14-1.28 at p90
+#: 0.92 of the size placed for (the mask keeps a swimmer's arms where they show under the
+#: water; an appliance's box is a pixel narrower each way at 1080p's 8-15 px), which the
+#: lean makes up for (boxes at 0.8-1.05 of SeaDronesSee's); with fitted weights swimmers
+#: came out at 1.14-1.28 at p90
 SDS_SIZE_WEIGHTS = {
     "boat": (2.12, 1.65, 1.02, 0.92, 0.94, 0.83, 0.81, 0.71, 0.51, 0.49),
     "jetski": (2.56, 1.01, 0.67, 0.56, 0.69, 0.85, 0.99, 0.91, 0.69, 1.05),
