@@ -214,6 +214,47 @@ def test_glitter_reaches_the_near_rows_of_a_low_view(water_textures):
     assert np.count_nonzero(bottom > 30) > 100  # sparkles in the 40 rows nearest the camera
 
 
+def test_glitter_beyond_the_table_scales_with_the_count(water_textures):
+    """A pixel expecting more sparkles than the glint table's last row (ln lam 7: ~1100;
+    a far pixel near the sun's mirror point holds up to 1e5) gets lam / lam_top times that
+    row's draw: the draws' mean stays lam (they were clamped at the last row: 1100 at
+    most, which cut a low sun's glitter path off short of the horizon in a flat band),
+    and the smooth glint's mean follows likewise."""
+    noise = water_textures.noise[:64, :256]
+    top = glitter._glint_table().shape[0] - 1
+    for ln_lam in (5.0, 9.0, 11.5):
+        e = np.full(noise.shape, (ln_lam - GLINT_LN0) / GLINT_LN_STEP, np.float32)
+        gain = glitter._beyond_table(e)
+        assert float(e.max()) <= top  # clamped to the table
+        s = _draw(np.exp(GLINT_LN0 + GLINT_LN_STEP * e), noise)
+        if gain is not None:
+            s = s * gain
+        assert (gain is None) == (ln_lam <= GLINT_LN0 + top * GLINT_LN_STEP)
+        assert 0.9 < float(np.median(s.reshape(16, -1).mean(1))) / math.exp(ln_lam) < 1.1
+    q = 1e-6  # a far pixel's share of white per sparkle: 1e5 sparkles give 0.1
+    got = glitter.expected_clipped(np.array([1e5]), np.array([0.0]), np.array([q]))[0]
+    assert got == pytest.approx(1e5 * q, rel=0.05)
+
+
+def test_a_low_suns_glitter_path_reaches_the_horizon(water_textures):
+    """Looking at a low sun (8 degrees) from 10 degrees pitch, the glitter path runs up to
+    the horizon, where the sun's mirror point is, narrowing there: the rows just under the
+    horizon glint (they stayed dim while the count was clamped at the table's last row)."""
+    model = CameraModel(width=320, height=180)
+    p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="clear",
+                wind=5.0, sun_elevation=8.0, sun_azimuth=0.0)
+    pose = CameraPose(40.0, 10.0, 0.0)
+    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
+    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    glint = (a.astype(int) - b).sum(axis=2) / 3.0  # levels added per pixel
+    r0 = int(np.argmax(info["sea_mask"][:, 0]))  # the first sea row (under the horizon)
+    near_horizon = glint[r0 + 2:r0 + 12].mean(axis=0)
+    bottom = glint[-10:].mean(axis=0)
+    assert near_horizon.max() > 100, near_horizon.max()
+    width = [np.count_nonzero(g > 40) for g in (near_horizon, bottom)]
+    assert 0 < width[0] < width[1], width  # a wedge, widening towards the camera
+
+
 @pytest.mark.parametrize("lam,base,q", [(0.01, 0.1, 0.5), (0.3, 0.2, 0.3), (2.0, 0.05, 0.2),
                                         (0.05, 0.0, 1.0)])
 def test_mean_glint_is_the_expected_clipped_glitter(lam, base, q):

@@ -58,6 +58,10 @@ def expected_clipped(lam: np.ndarray, base: np.ndarray, q: np.ndarray) -> np.nda
                 table.shape[0] - 1)
     r0 = np.minimum(np.floor(f).astype(np.int64), table.shape[0] - 2)
     w = f - r0
+    # beyond the last row, lam sparkles sum to lam / lam_top times lam_top's (see
+    # _beyond_table)
+    ln_top = GLINT_LN0 + (table.shape[0] - 1) * GLINT_LN_STEP
+    q = q * np.exp(np.maximum(np.log(np.maximum(lam, 1e-300)) - ln_top, 0.0))
     p = 10.0 ** (-6.0 * np.arange(table.shape[1]) / (table.shape[1] - 1))
     dp = np.append(-np.diff(p), p[-1])  # probability of each quantile's interval
 
@@ -192,8 +196,7 @@ def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off
     else:
         nz = wrap_window(nt, n0, n1, hh, ww, scratch("gnoise", (hh, ww), np.float32))
     g = qu  # (reused)
-    cv2.remap(_glint_table(), nz, e, cv2.INTER_NEAREST, dst=g,
-              borderMode=cv2.BORDER_REPLICATE)
+    draw_glint(nz, e, g)
     # a sparkle is the sun's disc mirrored in a facet, clipped on the sensor: ~3 px across
     # at 416 px: its core keeps its value, its neighbours get half of it (a grey dilation,
     # at 416 px and smaller frames; larger frames' facets are smaller than the disc)
@@ -222,6 +225,34 @@ def add_glitter(img, layers, sea, gain, plan, textures: WaterTextures, noise_off
 
 
 SATURATE_SERIES = 0.1  # below this many sparkles per facet, saturate_rows uses a series
+
+
+def draw_glint(noise: np.ndarray, e: np.ndarray, out: np.ndarray) -> None:
+    """Each pixel's glint in quanta into ``out`` (h, w) float32: the glint table's entry at
+    its noise column ``noise`` and its row ``e`` (both (h, w) float32; ``e`` is clamped to
+    the table in place), times :func:`_beyond_table`'s gain past the last row."""
+    beyond = _beyond_table(e)
+    cv2.remap(_glint_table(), noise, e, cv2.INTER_NEAREST, dst=out,
+              borderMode=cv2.BORDER_REPLICATE)
+    if beyond is not None:
+        cv2.multiply(out, beyond, dst=out)
+
+
+def _beyond_table(e: np.ndarray) -> np.ndarray | None:
+    """(h, w) float32 gains for the pixels of ``e`` (glint-table row coordinates, (h, w)
+    float32, clamped to the last row in place) whose expected sparkle count lies beyond
+    the table's last row (``ln lam`` 7: about 1100 sparkles; a far pixel at a low view
+    near the sun's mirror point holds up to 1e5): the sum of ``lam`` sparkles is, within
+    its noise, ``lam / lam_top`` times that of ``lam_top`` (their mean scales so; their
+    relative spread shrinks, which the table's last row keeps); None where none is."""
+    top = np.float32(_glint_table().shape[0] - 1)
+    if float(e.max()) <= top:
+        return None
+    over = e - top
+    np.maximum(over, np.float32(0.0), out=over)
+    over *= np.float32(GLINT_LN_STEP)
+    np.minimum(e, top, out=e)
+    return cv2.exp(over)
 
 
 def saturate_rows(e: np.ndarray, ln_n: np.ndarray) -> None:
