@@ -186,14 +186,20 @@ def test_sparkle_density_tracks_cox_munk(water_textures, monkeypatch):
     assert obs[lam < 1e-4].mean() < 1e-3
 
 
+def _with_and_without_glitter(model, pose, p, textures):
+    """(water with sparkles, the same water without glitter, the first one's info)."""
+    a, info = surface.render_water(model, pose, p, textures, glint="sparkles")
+    b, _ = surface.render_water(model, pose, p, textures, glint="none")
+    return a, b, info
+
+
 def test_no_glitter_without_direct_sun(water_textures):
     """Under an overcast sky (no direct sun) no pixel sparkles, whatever the view."""
     model = CameraModel(width=256, height=256)
     p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="overcast",
                 cloud_cover=1.0, wind=5.0, sun_elevation=60.0, sun_azimuth=0.0)
     pose = CameraPose(30.0, 60.0, 0.0)  # facing the sun
-    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
-    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    a, b, info = _with_and_without_glitter(model, pose, p, water_textures)
     assert info["glitter_box"] is None and np.array_equal(a, b)
 
 
@@ -206,8 +212,7 @@ def test_glitter_reaches_the_near_rows_of_a_low_view(water_textures):
     p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="clear",
                 wind=5.5, sun_elevation=40.0, sun_azimuth=2.0)
     pose = CameraPose(17.0, 15.0, 27.0)
-    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
-    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    a, b, info = _with_and_without_glitter(model, pose, p, water_textures)
     x0, y0, x1, y1 = info["glitter_box"]
     assert y1 == model.height
     bottom = (a[-40:].astype(int) - b[-40:]).sum(axis=2)
@@ -244,8 +249,7 @@ def test_a_low_suns_glitter_path_reaches_the_horizon(water_textures):
     p = replace(sample_water(np.random.default_rng(3), GeneratorConfig()), sky="clear",
                 wind=5.0, sun_elevation=8.0, sun_azimuth=0.0)
     pose = CameraPose(40.0, 10.0, 0.0)
-    a, info = surface.render_water(model, pose, p, water_textures, glint="sparkles")
-    b, _ = surface.render_water(model, pose, p, water_textures, glint="none")
+    a, b, info = _with_and_without_glitter(model, pose, p, water_textures)
     glint = (a.astype(int) - b).sum(axis=2) / 3.0  # levels added per pixel
     r0 = int(np.argmax(info["sea_mask"][:, 0]))  # the first sea row (under the horizon)
     near_horizon = glint[r0 + 2:r0 + 12].mean(axis=0)

@@ -25,12 +25,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from sdcomp.scene import sample  # noqa: E402
 from sdcomp.scene.config import GeneratorConfig  # noqa: E402
 from sdcomp.scene.objects import draw_size  # noqa: E402
-from sdcomp.scene.presets import SDS_SIZE_WEIGHTS, SDS_SIZES, preset  # noqa: E402
+from sdcomp.scene.presets import (  # noqa: E402
+    SDS_SIZE_WEIGHTS,
+    SDS_SIZES,
+    SDS_WEIGHT_GROUP,
+    preset,
+)
 from sdcomp.scene.scene import Role  # noqa: E402
 
 _PLACE = sample._place
 
-GROUP = 2  # neighbouring intervals that share one update (the samples per group)
+GROUP = SDS_WEIGHT_GROUP  # neighbouring intervals that share one weight (as the preset)
 DAMP = 0.7  # the update's power: weight *= (placed share / due share) ** -DAMP
 BOUNDS = (0.1, 10.0)  # the weights' range, relative to their mean
 

@@ -89,17 +89,19 @@ SDS_SIZES = {
 }
 
 #: per class, how often each interval between neighbouring :data:`SDS_SIZES` is drawn
-#: (the objects' ``size_weight``), one weight per two neighbouring intervals (the fit's
-#: resolution): a size that few of the preset's views can show (a small boat needs a high
-#: or flat view) is drawn again in the others, so without them the sizes shown lean to
-#: those that most views can (placed at 1.17 of SeaDronesSee's at p10 for boats, 1.39 for
-#: jet skis, 2.5 at p50 for buoys); fitted by ``tools/fit_size_weights.py`` (6 rounds of
-#: 6000 scenes: placed at 0.98-1.11 of SeaDronesSee's at p10 ... p90, another seed).
+#: (the objects' ``size_weight``), one weight per :data:`SDS_WEIGHT_GROUP` neighbouring
+#: intervals (the fit's resolution): a size that few of the preset's views can show (a
+#: small boat needs a high or flat view) is drawn again in the others, so without them the
+#: sizes shown lean to those that most views can (placed at 1.17 of SeaDronesSee's at p10
+#: for boats, 1.39 for jet skis, 2.5 at p50 for buoys); fitted by
+#: ``tools/fit_size_weights.py`` (6 rounds of 6000 scenes: placed at 0.98-1.11 of
+#: SeaDronesSee's at p10 ... p90, another seed).
 #: Swimmers and life-saving appliances are drawn evenly: their boxes come out at 1.05 and
 #: 0.92 of the size placed for (the mask keeps a swimmer's arms where they show under the
 #: water; an appliance's box is a pixel narrower each way at 1080p's 8-15 px), which the
 #: lean makes up for (boxes at 0.8-1.05 of SeaDronesSee's); with fitted weights swimmers
 #: came out at 1.14-1.28 at p90
+SDS_WEIGHT_GROUP = 2
 SDS_SIZE_WEIGHTS = {
     "boat": (2.12, 1.65, 1.02, 0.92, 0.94, 0.83, 0.81, 0.71, 0.51, 0.49),
     "jetski": (2.56, 1.01, 0.67, 0.56, 0.69, 0.85, 0.99, 0.91, 0.69, 1.05),
@@ -123,7 +125,8 @@ SDS_SIZE_WEIGHTS = {
 SEADRONESSEE: dict[str, Any] = {
     "objects": [{"mesh": k, "category": k, "weight": n, "frame": list(SDS_FRAMES[k]),
                  "size": list(SDS_SIZES[k])}
-                | ({"size_weight": [w for w in SDS_SIZE_WEIGHTS[k] for _ in (0, 1)]}
+                | ({"size_weight": [w for w in SDS_SIZE_WEIGHTS[k]
+                                   for _ in range(SDS_WEIGHT_GROUP)]}
                    if k in SDS_SIZE_WEIGHTS else {}) for k, n in SDS_CLASSES],
     "count": list(SDS_COUNT), "count_view": SDS_VIEW,
     "altitude": list(SDS_ALTITUDE),
