@@ -116,3 +116,49 @@ def test_deblocking_in_place_and_the_smoothing_rounds_half_to_even():
     moved = p0.astype(np.uint8)
     C._smooth_pairs(p1, moved, q0.copy(), np.zeros_like(p1), 1.0)
     assert np.array_equal(moved, np.round((p1q0 + 2 * p0) / 4.0))  # numpy: half to even
+
+
+@pytest.mark.parametrize("nx,ny", [(1, 1), (2, 2), (3, 2)])
+def test_block_compress_is_the_plain_roundtrip(nx, ny):
+    """The compression's shortcuts (the encoder's channel order swapped before the
+    magnification, the decoder's own RGB output, the deblocking's sums in NumPy) give the
+    bytes of the plain chain: magnify, RGB -> BGR, JPEG encode and decode, BGR -> RGB,
+    deblock, reduce."""
+    import cv2
+
+    img = water_like(96, 104, 7)
+    got, info = C.block_compress(img, 70, 0.6, nx, ny)
+    big = img if (nx, ny) == (1, 1) else cv2.resize(img, (104 * nx, 96 * ny),
+                                                     interpolation=cv2.INTER_LINEAR)
+    params = [cv2.IMWRITE_JPEG_QUALITY, 70, cv2.IMWRITE_JPEG_SAMPLING_FACTOR,
+              cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420]
+    ok, data = cv2.imencode(".jpg", cv2.cvtColor(big, cv2.COLOR_RGB2BGR), params)
+    want = cv2.cvtColor(cv2.imdecode(data, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    want = _deblock_reference(want, 0.6)
+    if (nx, ny) != (1, 1):
+        want = cv2.resize(want, (104, 96), interpolation=cv2.INTER_AREA)
+    assert ok and np.array_equal(got, want)
+    assert info["bpp"] == pytest.approx(8.0 * data.size / (big.shape[0] * big.shape[1]))
+
+
+def _deblock_reference(img: np.ndarray, s: float) -> np.ndarray:
+    """The deblocking written out per boundary in integers: p0 <- p0 + s (smooth - p0)
+    rounded as OpenCV's addWeighted rounds (half to even of the float sum), the smoothing
+    (p1 + 2 p0 + q0) / 4 rounded half up across columns (the [1, 2, 1] Gaussian's fixed
+    point) and half to even across rows; columns first."""
+    out = img.astype(np.int64)
+    h, w = out.shape[:2]
+
+    def blend(p0, smooth):
+        return np.rint(np.float32(1 - s) * p0.astype(np.float32)
+                       + np.float32(s) * smooth.astype(np.float32)).clip(0, 255)
+
+    for x in range(8, (w // 8) * 8 - 1, 8):  # boundary between columns x - 1 | x
+        p1, p0, q0, q1 = (out[:, x + d].copy() for d in (-2, -1, 0, 1))
+        out[:, x - 1] = blend(p0, (p1 + 2 * p0 + q0 + 2) >> 2)
+        out[:, x] = blend(q0, (q1 + 2 * q0 + p0 + 2) >> 2)
+    for y in range(8, (h // 8) * 8, 8):
+        p1, p0, q0, q1 = (out[y + d].copy() for d in (-2, -1, 0, 1))
+        out[y - 1] = blend(p0, np.round((p1 + 2 * p0 + q0) / 4.0))
+        out[y] = blend(q0, np.round((q1 + 2 * q0 + p0) / 4.0))
+    return out.astype(np.uint8)

@@ -70,6 +70,25 @@ def test_still_split_reproduces_the_tiles(tex, monkeypatch):
         assert diff.max() <= 1 and (diff == 0).mean() > 0.99
 
 
+def test_evolved_tile_is_the_plain_inverse_transform(tex):
+    """The evolved tile's slope codes are those of the spectrum's whole 2-D inverse FFT
+    into a new array (the tile transforms only the non-zero rows, and the columns in
+    place); the grain and foam channels are the still tile's, the last row and column wrap."""
+    for s, lev, t in ((0, 5, 0.37), (1, 8, 2.5)):
+        got = evolved_tile(tex, s, lev, t, -1.0)
+        f = np.fft.ifft2(animate.evolved_spectrum(tex, s, lev, t, -1.0))
+        assert f.dtype == np.complex64
+        sd = tex.code_sd(s, lev)
+        two = np.stack([f.real, f.imag], -1)
+        m = np.array([[animate.SLOPE_SCALE / sd[0], 0.0, 128.5],
+                      [0.0, animate.SLOPE_SCALE / sd[1], 128.5]], np.float32)
+        want = np.clip(cv2.transform(two, m), 0, 255).astype(np.uint8)
+        assert np.array_equal(got[:N_TILE, :N_TILE, :2], want)
+        assert np.array_equal(got[..., 2:], tex.ensure(s, lev)[..., 2:])
+        assert np.array_equal(got[N_TILE], got[0]) and np.array_equal(got[:, N_TILE],
+                                                                      got[:, 0])
+
+
 def test_nadir_sea_is_fixed_in_the_world(tex):
     """Moving the camera by d metres along its right axis moves the sea by d / gsd pixels
     when ``origin`` follows the camera; without it the sea moves with the camera."""
