@@ -48,7 +48,7 @@ def test_round_trip_within_0_05_px(k1, k2, w, h, fov):
 @pytest.mark.parametrize("k1,k2", LENSES)
 def test_maps_stay_inside_and_are_tight(k1, k2):
     w, h, f = 640, 480, 520.0
-    lens = L.lens_maps(w, h, f, f, k1, k2)
+    lens = L.lens_maps(w, h, f, f, k1, k2, full=True)
     mx, my = cv2.convertMaps(*lens.maps[0], cv2.CV_32FC1)
     assert mx.min() >= 0 and my.min() >= 0 and mx.max() <= w - 1 and my.max() <= h - 1
     border = np.concatenate([mx[0], mx[-1], mx[:, 0], mx[:, -1]])
@@ -58,10 +58,23 @@ def test_maps_stay_inside_and_are_tight(k1, k2):
     assert (lens.zoom > 1) == (k1 < 0)  # barrel distortion: zoom in; pincushion: out
 
 
-def test_maps_are_cached():
-    a = L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0)
-    assert L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0) is a
-    assert L.lens_maps(320, 240, 250.0, 250.0, -0.05, 0.0) is not a
+def test_a_lens_asked_for_again_gets_cached_full_maps():
+    """A new lens streams (its grid only: most images draw a new one); asked for again it
+    gets full-frame maps, kept and handed out from then on; frames over STREAM_PIXELS
+    always stream."""
+    L.clear_caches()
+    first = L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0)
+    assert first.streamed and first.maps is None
+    second = L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0)
+    assert not second.streamed and second.grid is first.grid
+    assert L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0) is second
+    assert L.lens_maps(320, 240, 250.0, 250.0, -0.05, 0.0).streamed
+    assert not L.lens_maps(320, 240, 250.0, 250.0, -0.06, 0.0, full=True).streamed
+    w, h = 2600, 1700  # 4.4 MP
+    assert w * h > L.STREAM_PIXELS
+    assert L.lens_maps(w, h, 2000.0, 2000.0, -0.04, 0.0).streamed
+    assert L.lens_maps(w, h, 2000.0, 2000.0, -0.04, 0.0).streamed
+    L.clear_caches()
 
 
 @pytest.mark.parametrize("w,h", [(416, 416), (1280, 720)])
@@ -92,7 +105,7 @@ def test_remap_puts_points_where_the_model_says(w, h):
 def test_lateral_ca_scales_red_and_blue():
     w = h = 600
     f, ca_r, ca_b = 500.0, 2e-3, -2e-3
-    lens = L.lens_maps(w, h, f, f, -0.02, 0.0, ca_r, ca_b)
+    lens = L.lens_maps(w, h, f, f, -0.02, 0.0, ca_r, ca_b, full=True)
     assert len(lens.maps) == 3
     src = np.array([520.0, 480.0])
     img = np.zeros((h, w, 3), np.uint8)
@@ -148,7 +161,7 @@ def test_amodal_bit_planes_match_one_by_one():
 
 
 def test_vignetting_is_one_at_centre_and_cos4_at_the_edge():
-    lens = L.lens_maps(401, 401, 300.0, 300.0, 0.0, 0.0)
+    lens = L.lens_maps(401, 401, 300.0, 300.0, 0.0, 0.0, full=True)
     g = L.vignette_gain(lens.field_r2, 1.0)
     assert abs(g[200, 200] - 1) < 1e-6
     t2 = (200 / 300) ** 2
@@ -168,7 +181,7 @@ def test_grid_interpolated_maps_match_the_model(k1, k2):
     """Frames over 640 px get their maps from an 8 px grid: within the 1/32 px fixed-point
     resolution of OpenCV's maps (<= 0.023 px) of the exact model everywhere, borders too."""
     w, h, f = 1920, 1080, 1450.0
-    lens = L.lens_maps(w, h, f, f, k1, k2)
+    lens = L.lens_maps(w, h, f, f, k1, k2, full=True)
     mx, my = cv2.convertMaps(*lens.maps[0], cv2.CV_32FC1)
     ys, xs = np.mgrid[0:h:7, 0:w:7]
     xs = np.concatenate([xs.ravel(), np.arange(w), np.full(h, w - 1)])
@@ -179,10 +192,10 @@ def test_grid_interpolated_maps_match_the_model(k1, k2):
 
 
 @pytest.mark.parametrize("ca", [(0.0, 0.0), (4e-4, -4e-4)])
-def test_streamed_lens_gives_the_cached_maps_pixels(monkeypatch, ca):
-    """Frames over STREAM_PIXELS build their maps band by band from the lens grid: the
-    image, labels (windowed and whole) and vignetting come out byte for byte as with the
-    full cached maps, and the streamed lens keeps no full-frame array."""
+def test_streamed_lens_gives_the_cached_maps_pixels(ca):
+    """A streamed lens builds its maps band by band from the lens grid: the image, labels
+    (windowed and whole) and vignetting come out byte for byte as with full maps, and the
+    streamed lens keeps no full-frame array."""
     w, h = 1000, 700
     rng = np.random.default_rng(3)
     img = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
@@ -190,10 +203,9 @@ def test_streamed_lens_gives_the_cached_maps_pixels(monkeypatch, ca):
     lab[h // 3:h // 2, w // 5:w // 2] = 3
     lab[5:60, 900:990] = 7
     got = {}
-    for name, limit in (("full", 1 << 40), ("streamed", 0)):
-        monkeypatch.setattr(L, "STREAM_PIXELS", limit)
+    for name in ("full", "streamed"):
         L.clear_caches()
-        lens = L.lens_maps(w, h, 0.8 * w, 0.8 * w, -0.04, 0.01, *ca)
+        lens = L.lens_maps(w, h, 0.8 * w, 0.8 * w, -0.04, 0.01, *ca, full=name == "full")
         assert lens.streamed == (name == "streamed")
         got[name] = (R.remap_image(img, lens), R.remap_labels(lab, lens),
                      R.remap_labels(lab, lens, window=False), R.vignette(img, lens, 0.4))
@@ -210,9 +222,9 @@ def test_full_maps_rebuilt_from_the_cached_grid_are_the_same():
     zoom's bisection is not redone) with the same bytes as a lens built from nothing."""
     args = (1000, 700, 800.0, 800.0, -0.03, 0.01, 0.0004, -0.0002)
     L.clear_caches()
-    cold = L.lens_maps(*args)
+    cold = L.lens_maps(*args, full=True)
     L._MAP_CACHE.clear()
-    warm = L.lens_maps(*args)
+    warm = L.lens_maps(*args, full=True)
     assert warm is not cold and warm.grid is cold.grid
     for a, b in zip(cold.maps, warm.maps, strict=True):
         assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))

@@ -30,7 +30,7 @@ from ...util.colour import srgb_to_linear
 MAP_GRID = 8  # frames wider than MAP_GRID_MIN get their remap maps from a grid this coarse
 MAP_GRID_MIN = 640
 MAP_CACHE_BYTES = 256 << 20  # the lens map cache keeps at most about this many bytes
-STREAM_PIXELS = 1 << 22  # larger frames keep the grid only; remaps build maps per band
+STREAM_PIXELS = 1 << 22  # larger frames keep the grid only (smaller: from a lens's second use)
 # flat (log) profile: LOG_BLACK + (1 - LOG_BLACK) log(1 + LOG_K x) / log(1 + LOG_K LOG_MAX):
 # lifted black, 18 % grey at 0.45, the renderer's white at 0.75, 2 stops of headroom
 
@@ -184,8 +184,8 @@ class LensMaps:
 
     ``grid``: the :class:`LensGrid` everything else is made from; ``zoom``: see
     :func:`lens_zoom`; ``max_shift``: the largest distance (px) between an output pixel and
-    its source. Frames of at most :data:`STREAM_PIXELS` also carry full-frame maps (None
-    above: the remaps then make them band by band, :mod:`sdcomp.render.camera.remap`):
+    its source. A lens may also carry full-frame maps (None without: the remaps then make
+    them band by band, :mod:`sdcomp.render.camera.remap`; see :func:`lens_maps`):
     ``maps``, per channel a pair of OpenCV fixed-point maps (CV_16SC2, CV_16UC1) for
     bilinear remapping; ``nearest``, an (H, W, 2) int16 map (rounded, green geometry) for
     labels; ``field_r2``, the grid's ``r2`` at every pixel (H, W) float32."""
@@ -224,7 +224,8 @@ _MAP_CACHE: OrderedDict = OrderedDict()
 
 
 def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
-              ca_red: float = 0.0, ca_blue: float = 0.0) -> LensMaps:
+              ca_red: float = 0.0, ca_blue: float = 0.0, *, full: bool | None = None
+              ) -> LensMaps:
     """The lens geometry of output size ``w`` x ``h`` for a rendered image of focal lengths
     ``fx``, ``fy`` (px) seen through a lens with radial distortion ``k1``, ``k2`` and lateral
     CA (red and blue images scaled by ``1 + ca_red``, ``1 + ca_blue`` about the centre),
@@ -234,24 +235,33 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     Output pixel p of channel c samples the rendered image at
     ``c0 + f x_u`` with ``x_u = undistort((p - c0) / (zoom f (1 + ca_c)))``. Frames wider than
     :data:`MAP_GRID_MIN` compute this on a grid every :data:`MAP_GRID` px
-    (:class:`LensGrid`); OpenCV's fixed-point maps then resolve 1/32 px. Frames over
-    :data:`STREAM_PIXELS` keep the grid only (a 20 MP frame's full maps take 280 MB, more
-    than the cache: every image would rebuild them).
+    (:class:`LensGrid`); OpenCV's fixed-point maps then resolve 1/32 px.
+
+    ``full``: whether the lens carries full-frame maps (True), the grid only (False: the
+    remaps build their maps band by band, the same pixels), or (None) full maps for a lens
+    asked for before whose frame has at most :data:`STREAM_PIXELS` (a 20 MP frame's full
+    maps take 280 MB, more than the cache). The looks draw a new lens for most images:
+    full maps made once and dropped cost more than they save (a 1920 x 1080 frame: 55 MB
+    of new memory per image, 10-20 % of its time in page faults), while a lens that comes
+    back (a fixed look, a video) remaps a third faster with them.
     """
     key = (w, h, round(fx, 6), round(fy, 6), k1, k2, ca_red, ca_blue)
     hit = _recall(_MAP_CACHE, key)
     if hit is not None:
         return hit
+    if full is None:
+        full = key in _GRID_CACHE and w * h <= STREAM_PIXELS
     out = _lens_grid(key)
-    if w * h <= STREAM_PIXELS:
-        grid = out.grid
-        maps, green = [], len(grid.src) // 2
-        for c in range(len(grid.src)):  # the green points make the nearest map too
-            points = grid.points(c, 0, 0, w, h)
-            maps.append(cv2.convertMaps(*points, cv2.CV_16SC2))
-            if c == green:
-                nearest = cv2.convertMaps(*points, cv2.CV_16SC2, nninterpolation=True)[0]
-        out = replace(out, maps=tuple(maps), nearest=nearest, field_r2=grid.full(grid.r2))
+    if not full:
+        return out
+    grid = out.grid
+    maps, green = [], len(grid.src) // 2
+    for c in range(len(grid.src)):  # the green points make the nearest map too
+        points = grid.points(c, 0, 0, w, h)
+        maps.append(cv2.convertMaps(*points, cv2.CV_16SC2))
+        if c == green:
+            nearest = cv2.convertMaps(*points, cv2.CV_16SC2, nninterpolation=True)[0]
+    out = replace(out, maps=tuple(maps), nearest=nearest, field_r2=grid.full(grid.r2))
     return _remember(_MAP_CACHE, key, out, MAP_CACHE_BYTES)
 
 

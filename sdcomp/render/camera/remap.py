@@ -1,11 +1,12 @@
 """Images, instance maps and masks through the lens geometry (:mod:`~.lens`), and its
 vignetting.
 
-Frames of at most :data:`~.lens.STREAM_PIXELS` use the lens's cached full-frame maps; larger
-ones build their maps band by band from the lens's grid (:meth:`~.lens.LensGrid.window`):
-a band of :data:`BAND_PIXELS` stays in the processor's cache, the full maps of a 20 MP
-frame (280 MB) would not, and the cache could not keep them between images either.
-Both give the same pixels (the same fixed-point maps, :meth:`~.lens.LensGrid.source`).
+A lens that carries cached full-frame maps (one asked for before, :func:`~.lens.lens_maps`)
+uses them; the others build their maps band by band from the lens's grid
+(:meth:`~.lens.LensGrid.window`): a band of :data:`BAND_PIXELS` stays in the processor's
+cache, the full maps of a 20 MP frame (280 MB) would not, and full maps made for one image
+cost more memory traffic than they save. Both give the same pixels (the same fixed-point
+maps, :meth:`~.lens.LensGrid.source`).
 """
 
 from __future__ import annotations
