@@ -257,3 +257,41 @@ def test_unclipped_source_points_remap_as_clipped_ones(w, h):
     assert np.array_equal(R.remap_labels(lab, lens, window=False),
                           cv2.remap(lab, near, None, cv2.INTER_NEAREST))
     L.clear_caches()
+
+
+def test_a_lens_rebuilt_after_its_grid_left_the_cache_keeps_its_zoom_without_a_bisection():
+    """Lenses whose grids dropped out of their cache come back over a long run: the zoom
+    (the bisection's 15-20 ms) is remembered apart, and the rebuilt lens is the same."""
+    args = (1920, 1080, 1450.0, 1224.0, -0.02, 0.01, 0.0004, 0.0)
+    L.clear_caches()
+    first = L.lens_maps(*args)
+    misses = L.lens_zoom.cache_info().misses
+    L._GRID_CACHE.clear()
+    again = L.lens_maps(*args)
+    assert again.grid is not first.grid and again.zoom == first.zoom
+    assert L.lens_zoom.cache_info().misses == misses  # no new bisection
+    for a, b in zip(first.grid.src, again.grid.src, strict=True):
+        assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    L.clear_caches()
+    assert L.lens_zoom.cache_info().currsize == 0
+
+
+def test_a_lens_that_comes_back_after_the_cache_would_have_dropped_it_streams(monkeypatch):
+    """Full maps are made only for a lens asked for again among the last N lenses, N the
+    number of such maps the cache holds (here 3): one that comes back later streams again
+    (maps made for it would have left the cache before it came back)."""
+    w, h = 320, 240
+    monkeypatch.setattr(L, "MAP_CACHE_BYTES", 3 * w * h * (6 + 8))
+    L.clear_caches()
+
+    def lens(k1):
+        return L.lens_maps(w, h, 250.0, 250.0, k1, 0.0)
+
+    assert lens(-0.01).streamed
+    for k1 in (-0.02, -0.03):
+        assert lens(k1).streamed
+    assert not lens(-0.01).streamed  # third back: within the last 3
+    for k1 in (-0.04, -0.05, -0.06, -0.07):
+        assert lens(k1).streamed
+    assert lens(-0.02).streamed  # five other lenses since: gone
+    L.clear_caches()

@@ -239,9 +239,11 @@ def _label_stats(labels: np.ndarray, objs: list[Layer], moved: bool
     """(area, bbox (x, y, w, h)) of labels 1..K: inside each object's drawn box when the
     labels have not ``moved`` (frames can be huge), else from all labelled pixels."""
     out: list[tuple[int, tuple[int, int, int, int]]] = []
-    if moved:
-        ys, xs = np.nonzero(labels)
-        ids = labels[ys, xs]
+    if moved:  # the rows holding labels first: a frame's objects fill few of its rows
+        rows = np.flatnonzero(labels.any(axis=1))
+        sub = labels[rows]
+        yy, xs = np.nonzero(sub)
+        ids, ys = sub[yy, xs], rows[yy]
         for k in range(1, len(objs) + 1):
             sel = ids == k
             out.append(_box(xs[sel], ys[sel], 0, 0))

@@ -18,6 +18,7 @@ No function here draws random numbers: noise comes from windows of a pre-drawn t
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, replace
@@ -30,6 +31,7 @@ from ...util.colour import srgb_to_linear
 MAP_GRID = 8  # frames wider than MAP_GRID_MIN get their remap maps from a grid this coarse
 MAP_GRID_MIN = 640
 MAP_CACHE_BYTES = 256 << 20  # the lens map cache keeps at most about this many bytes
+ZOOM_CACHE = 4096  # lenses whose zoom is remembered (lens_zoom)
 STREAM_PIXELS = 1 << 22  # larger frames keep the grid only (smaller: from a lens's second use)
 # flat (log) profile: LOG_BLACK + (1 - LOG_BLACK) log(1 + LOG_K x) / log(1 + LOG_K LOG_MAX):
 # lifted black, 18 % grey at 0.45, the renderer's white at 0.75, 2 stops of headroom
@@ -82,12 +84,16 @@ def _source(x, y, w, h, fx, fy, k1, k2, zoom, ca):
     return cx + fx * xd * g, cy + fy * yd * g
 
 
+@functools.lru_cache(maxsize=ZOOM_CACHE)
 def lens_zoom(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
               cas: tuple[float, ...] = (0.0,)) -> float:
     """The zoom z (output focal = z x rendered focal) at which every output pixel of every
     channel (magnifications ``1 + ca`` for ca in ``cas``) samples inside the rendered
     frame, [0, W-1] x [0, H-1], as tightly as possible (``getOptimalNewCameraMatrix``
-    with alpha = 0): > 1 for barrel distortion. Bisection over the frame's border."""
+    with alpha = 0): > 1 for barrel distortion. Bisection over the frame's border (15-20
+    ms); remembered for the last :data:`ZOOM_CACHE` lenses (a float each: the looks'
+    quantised lenses come back over a long run, their grids drop out of their cache
+    sooner)."""
     n = 257
     t = np.linspace(0.0, 1.0, n)
     bx = np.concatenate([t * (w - 1), t * (w - 1), np.zeros(n), np.full(n, w - 1.0)])
@@ -239,18 +245,19 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
 
     ``full``: whether the lens carries full-frame maps (True), the grid only (False: the
     remaps build their maps band by band, the same pixels), or (None) full maps for a lens
-    asked for before whose frame has at most :data:`STREAM_PIXELS` (a 20 MP frame's full
-    maps take 280 MB, more than the cache). The looks draw a new lens for most images:
-    full maps made once and dropped cost more than they save (a 1920 x 1080 frame: 55 MB
-    of new memory per image, 10-20 % of its time in page faults), while a lens that comes
-    back (a fixed look, a video) remaps a third faster with them.
+    that comes back soon (:func:`_comes_back`) on a frame of at most :data:`STREAM_PIXELS`
+    (a 20 MP frame's full maps take 280 MB, more than the cache). The looks draw one of
+    about a hundred lenses per image, and the cache holds 5 of a 1920 x 1080 frame's full
+    maps: maps made for one image and dropped cost more than they save (55 MB of new memory
+    an image, 10-20 % of its time in page faults), while a lens that comes back (a fixed
+    look, a video's sequence) remaps a third faster with them.
     """
     key = (w, h, round(fx, 6), round(fy, 6), k1, k2, ca_red, ca_blue)
     hit = _recall(_MAP_CACHE, key)
     if hit is not None:
         return hit
     if full is None:
-        full = key in _GRID_CACHE and w * h <= STREAM_PIXELS
+        full = _comes_back(key) and w * h <= STREAM_PIXELS
     out = _lens_grid(key)
     if not full:
         return out
@@ -263,6 +270,24 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
             nearest = cv2.convertMaps(*points, cv2.CV_16SC2, nninterpolation=True)[0]
     out = replace(out, maps=tuple(maps), nearest=nearest, field_r2=grid.full(grid.r2))
     return _remember(_MAP_CACHE, key, out, MAP_CACHE_BYTES)
+
+
+_RECENT: OrderedDict = OrderedDict()  # lenses asked for lately, least recent first
+
+
+def _comes_back(key: tuple) -> bool:
+    """Whether lens ``key`` (a :func:`lens_maps` key) was asked for among the last N
+    lenses, N the number of its full maps :data:`MAP_CACHE_BYTES` holds: a lens that came
+    back that soon is likely to come back again before its full maps leave the cache (a
+    fixed lens: every time; one of a hundred drawn lenses at 1080p, N = 5: rarely)."""
+    w, h, *_, ca_red, ca_blue = key
+    per_lens = w * h * (6 * (3 if ca_red or ca_blue else 1) + 8)  # maps, nearest, field
+    seen = key in _RECENT
+    _RECENT[key] = None
+    _RECENT.move_to_end(key)
+    while len(_RECENT) > max(1, MAP_CACHE_BYTES // per_lens):
+        _RECENT.popitem(last=False)
+    return seen
 
 
 def _recall(cache: OrderedDict, key: tuple) -> LensMaps | None:
@@ -321,7 +346,9 @@ def _lens_grid(key: tuple) -> LensMaps:
 
 
 def clear_caches() -> None:
-    """Forget every cached lens: full maps, grids and vignetting fall-offs."""
+    """Forget every cached lens: full maps, grids, zooms and vignetting fall-offs."""
+    lens_zoom.cache_clear()
+    _RECENT.clear()
     _MAP_CACHE.clear()
     _GRID_CACHE.clear()
     _FALLOFF_CACHE.clear()
