@@ -91,9 +91,7 @@ def lens_zoom(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     channel (magnifications ``1 + ca`` for ca in ``cas``) samples inside the rendered
     frame, [0, W-1] x [0, H-1], as tightly as possible (``getOptimalNewCameraMatrix``
     with alpha = 0): > 1 for barrel distortion. Bisection over the frame's border (15-20
-    ms); remembered for the last :data:`ZOOM_CACHE` lenses (a float each: the looks'
-    quantised lenses come back over a long run, their grids drop out of their cache
-    sooner)."""
+    ms), remembered for :data:`ZOOM_CACHE` lenses (longer than their grids are)."""
     n = 257
     t = np.linspace(0.0, 1.0, n)
     bx = np.concatenate([t * (w - 1), t * (w - 1), np.zeros(n), np.full(n, w - 1.0)])
@@ -235,23 +233,17 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     """The lens geometry of output size ``w`` x ``h`` for a rendered image of focal lengths
     ``fx``, ``fy`` (px) seen through a lens with radial distortion ``k1``, ``k2`` and lateral
     CA (red and blue images scaled by ``1 + ca_red``, ``1 + ca_blue`` about the centre),
-    zoomed by :func:`lens_zoom`. LRU-cached per arguments (the look quantises them) up to
-    :data:`MAP_CACHE_BYTES`.
-
-    Output pixel p of channel c samples the rendered image at
-    ``c0 + f x_u`` with ``x_u = undistort((p - c0) / (zoom f (1 + ca_c)))``. Frames wider than
-    :data:`MAP_GRID_MIN` compute this on a grid every :data:`MAP_GRID` px
+    zoomed by :func:`lens_zoom`; with full maps, LRU-cached per arguments (the look quantises
+    them) up to :data:`MAP_CACHE_BYTES`. Output pixel p of channel c samples the rendered
+    image at ``c0 + f x_u`` with ``x_u = undistort((p - c0) / (zoom f (1 + ca_c)))``.
+    Frames wider than :data:`MAP_GRID_MIN` compute this on a grid every :data:`MAP_GRID` px
     (:class:`LensGrid`); OpenCV's fixed-point maps then resolve 1/32 px.
 
-    ``full``: whether the lens carries full-frame maps (True), the grid only (False: the
-    remaps build their maps band by band, the same pixels), or (None) full maps for a lens
-    that comes back soon (:func:`_comes_back`) on a frame of at most :data:`STREAM_PIXELS`
-    (a 20 MP frame's full maps take 280 MB, more than the cache). The looks draw one of
-    about a hundred lenses per image, and the cache holds 5 of a 1920 x 1080 frame's full
-    maps: maps made for one image and dropped cost more than they save (55 MB of new memory
-    an image, 10-20 % of its time in page faults), while a lens that comes back (a fixed
-    look, a video's sequence) remaps a third faster with them.
-    """
+    ``full``: full-frame maps (True), the grid only (False: the remaps build their maps
+    band by band, the same pixels) or (None) full maps for a lens that comes back soon
+    (:func:`_comes_back`) on a frame of at most :data:`STREAM_PIXELS`: 1080p full maps made
+    for one image cost more than they save (55 MB of new memory), a lens that comes back (a
+    fixed look, a video) remaps a third faster with them."""
     key = (w, h, round(fx, 6), round(fy, 6), k1, k2, ca_red, ca_blue)
     hit = _recall(_MAP_CACHE, key)
     if hit is not None:
@@ -276,10 +268,9 @@ _RECENT: OrderedDict = OrderedDict()  # lenses asked for lately, least recent fi
 
 
 def _comes_back(key: tuple) -> bool:
-    """Whether lens ``key`` (a :func:`lens_maps` key) was asked for among the last N
-    lenses, N the number of its full maps :data:`MAP_CACHE_BYTES` holds: a lens that came
-    back that soon is likely to come back again before its full maps leave the cache (a
-    fixed lens: every time; one of a hundred drawn lenses at 1080p, N = 5: rarely)."""
+    """Whether lens ``key`` (of :func:`lens_maps`) was asked for among the last N lenses, N
+    the number of its full maps :data:`MAP_CACHE_BYTES` holds (a fixed lens: every time;
+    one of the looks' ~96 lenses at 1080p, N = 5: rarely)."""
     w, h, *_, ca_red, ca_blue = key
     per_lens = w * h * (6 * (3 if ca_red or ca_blue else 1) + 8)  # maps, nearest, field
     seen = key in _RECENT
