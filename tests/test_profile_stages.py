@@ -16,8 +16,10 @@ def test_profile_times_every_step_of_the_generators_image(sprites_dir):
     tool = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(tool)
     # the tool checks its first image against Generator.render's (it raises otherwise)
-    steps, cold = tool.profile(GeneratorConfig(width=96, height=64), 2, sprites_dir)
+    usage: dict = {}
+    steps, cold = tool.profile(GeneratorConfig(width=96, height=64), 2, sprites_dir, usage)
     for step in ("scene: draw the scene", "water (view and draw)", "objects: layers, foam",
                  "labels: map", "labels: measure", "camera: photometric"):
         assert steps[step] > 0, step
     assert any(k.startswith("  water: ") for k in steps) and cold > 0
+    assert usage["user"] > 0 and usage["system"] >= 0 and usage["faults"] >= 0

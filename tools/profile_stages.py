@@ -1,6 +1,6 @@
 """Per-stage cost of one image, the generator's own steps timed in one process.
 
-    python tools/profile_stages.py [--size WxH ...] [--n 60] [--preset NAME]
+    python tools/profile_stages.py [--size WxH ...] [--n 60] [--preset NAME] [--threads N]
 
 For each frame size, renders ``--n`` images of the default config (or a preset) after a
 warm-up of 5 (every sprite level and cache made: a long run's steady state; the first
@@ -10,17 +10,21 @@ draw, the water (its view, then its drawing: textures, shading, foam, glitter, s
 objects' layers, compositing, defocus, the label map, the camera (per stage, as
 :func:`~sdcomp.render.camera.pipeline.apply_camera` reports them) and the labels' measure.
 Prints a markdown table per size: milliseconds per image and share of the whole (the
-water's own sections, indented, are parts of its row). The first profiled image is checked
-against :meth:`~sdcomp.pipeline.Generator.render`'s (the same bytes), so the steps timed
-are the generator's.
+water's own sections, indented, are parts of its row), then the process's user and system
+CPU time and page faults per image (``--threads 1``: as a run's worker renders; the system
+time is mostly page faults, which freed frames cost when the heap returns them). The first
+profiled image is checked against :meth:`~sdcomp.pipeline.Generator.render`'s (the same
+bytes), so the steps timed are the generator's.
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import time
 from collections import defaultdict
 
+import cv2
 import numpy as np
 
 from sdcomp import Generator, GeneratorConfig
@@ -36,8 +40,11 @@ from sdcomp.scene.presets import preset
 from sdcomp.scene.sample import sample_scene
 
 
-def profile(config: GeneratorConfig, n: int, sprites: str | None) -> tuple[dict, float]:
-    """(mean seconds per image per step, seconds of the first image) over ``n`` images."""
+def profile(config: GeneratorConfig, n: int, sprites: str | None,
+            usage: dict | None = None) -> tuple[dict, float]:
+    """(mean seconds per image per step, seconds of the first image) over ``n`` images;
+    ``usage``, when given, receives the process's user and system CPU seconds and minor
+    page faults per profiled image (``user``, ``system``, ``faults``)."""
     gen = Generator(config, sprites, progress=False)
     gen.warm()
     comp = gen.compositor
@@ -50,6 +57,7 @@ def profile(config: GeneratorConfig, n: int, sprites: str | None) -> tuple[dict,
     water: dict = {}
     water_base.PROFILE = water
     clock = [0.0]
+    before = resource.getrusage(resource.RUSAGE_SELF)
 
     def tick(name: str) -> None:
         now = time.perf_counter()
@@ -90,6 +98,11 @@ def profile(config: GeneratorConfig, n: int, sprites: str | None) -> tuple[dict,
             raise RuntimeError("the profiled steps no longer make the generator's image: "
                                "update them to Generator._render_once")
     water_base.PROFILE = None
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    if usage is not None:
+        usage.update(user=(after.ru_utime - before.ru_utime) / n,
+                     system=(after.ru_stime - before.ru_stime) / n,
+                     faults=(after.ru_minflt - before.ru_minflt) / n)
     out = {k: v / n for k, v in steps.items()}
     parts: dict[str, float] = defaultdict(float)
     for k, v in water.items():  # the water's own sections, their sub-steps summed
@@ -112,12 +125,18 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=60)
     ap.add_argument("--preset", default=None)
     ap.add_argument("--sprites", default=None)
+    ap.add_argument("--threads", type=int, default=None,
+                    help="OpenCV threads (a run's workers use 1; default: OpenCV's own, "
+                         "which the generator lowers to 1 for frames up to 512x512)")
     args = ap.parse_args()
+    if args.threads is not None:
+        cv2.setNumThreads(args.threads)
     for size in args.size:
         w, h = (int(x) for x in size.split("x"))
         base = preset(args.preset) if args.preset else {}
         config = GeneratorConfig.from_mapping({**base, "width": w, "height": h})
-        steps, cold = profile(config, args.n, args.sprites)
+        usage: dict = {}
+        steps, cold = profile(config, args.n, args.sprites, usage)
         total = sum(v for k, v in steps.items() if not k.startswith("  "))
         print(f"\n### {w}x{h}{' --preset ' + args.preset if args.preset else ''}: "
               f"{1000 * total:.1f} ms per image ({args.n} images, warm; the first image "
@@ -125,6 +144,8 @@ def main() -> None:
         print("| step | ms per image | share |\n|---|---|---|")
         for k, v in sorted(steps.items(), key=lambda kv: (kv[0].startswith("  "), -kv[1])):
             print(f"| {k.strip()} | {1000 * v:.2f} | {100 * v / total:.0f} % |")
+        print(f"\nCPU an image: user {1000 * usage['user']:.1f} ms, system "
+              f"{1000 * usage['system']:.1f} ms; {usage['faults']:.0f} page faults")
 
 
 if __name__ == "__main__":
