@@ -10,7 +10,7 @@ import numpy as np
 
 from .layers import Layer
 
-SHADOW_BLUR_WORK = 8.0  # pixels: wider shadow blurs are made on a reduced copy
+SHADOW_BLUR_WORK = 8.0  # pixels: shadow blurs twice as wide are made on a reduced copy
 BAND_PIXELS = 1 << 18  # layers are blended in bands of rows of about this many pixels
 NO_COLOUR = np.zeros((0, 0, 3), np.float32)  # a drawn layer's colour, released
 
@@ -20,7 +20,7 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     ``shadow_strength`` of the linear light, so sRGB levels keep ``(1 - s a)**(1 / 2.2)``
     (``a`` the shadow's blurred coverage, quantised to 256 steps: one table look-up and one
     multiply per pixel). Wide blurs are made on a copy reduced by an integer factor (sigma
-    at most :data:`SHADOW_BLUR_WORK` pixels there) and magnified back band by band of
+    under twice :data:`SHADOW_BLUR_WORK` pixels there) and magnified back band by band of
     :data:`BAND_PIXELS` over the frame's part only (no full-size copy of a shadow wider
     than the frame)."""
     if layer.shadow_strength <= 0.01:
