@@ -76,8 +76,7 @@ def test_evolved_tile_is_the_plain_inverse_transform(tex):
     place); the grain and foam channels are the still tile's, the last row and column wrap."""
     for s, lev, t in ((0, 5, 0.37), (1, 8, 2.5)):
         got = evolved_tile(tex, s, lev, t, -1.0)
-        f = np.fft.ifft2(animate.evolved_spectrum(tex, s, lev, t, -1.0))
-        assert f.dtype == np.complex64
+        f = np.fft.ifft2(animate.evolved_spectrum(tex, s, lev, t, -1.0)).astype(np.complex64)
         sd = tex.code_sd(s, lev)
         two = np.stack([f.real, f.imag], -1)
         m = np.array([[animate.SLOPE_SCALE / sd[0], 0.0, 128.5],
@@ -87,6 +86,14 @@ def test_evolved_tile_is_the_plain_inverse_transform(tex):
         assert np.array_equal(got[..., 2:], tex.ensure(s, lev)[..., 2:])
         assert np.array_equal(got[N_TILE], got[0]) and np.array_equal(got[:, N_TILE],
                                                                       got[:, 0])
+
+
+def test_evolved_tile_without_the_in_place_transform_is_the_same(tex, monkeypatch):
+    """NumPy 1's path (no ``out``: the column transform into a new array) makes the same
+    tile as the in-place one."""
+    want = evolved_tile(tex, 0, 6, 0.41, 1.0)
+    monkeypatch.setattr(animate, "_FFT_OUT", False)
+    assert np.array_equal(evolved_tile(tex, 0, 6, 0.41, 1.0), want)
 
 
 def test_nadir_sea_is_fixed_in_the_world(tex):

@@ -113,8 +113,10 @@ def evolved_tile(base: WaterTextures, s: int, level: int, t: float,
     rows = _level_modes(base, s, level, sign)[4]
     f = evolved_spectrum(base, s, level, t, downwind)  # a new array: transformed in place
     f[rows] = np.fft.ifft(f[rows], axis=1)
-    # in place (``out``): a third of the cost of the column transform into a new array
-    np.fft.ifft(f, axis=0, out=f)
+    if _FFT_OUT:  # in place: a third of the cost of the column transform into a new array
+        np.fft.ifft(f, axis=0, out=f)
+    else:  # NumPy 1 (no ``out``; it transforms complex64 in complex128)
+        f = np.fft.ifft(f, axis=0).astype(np.complex64)
     two = f.view(np.float32).reshape(n, n, 2)  # (upwind, crosswind) slopes, interleaved
     m = np.array([[SLOPE_SCALE / float(sd[0]), 0.0, 128.5],
                   [0.0, SLOPE_SCALE / float(sd[1]), 128.5]], np.float32)
@@ -126,6 +128,9 @@ def evolved_tile(base: WaterTextures, s: int, level: int, t: float,
     words[n, :] = words[0, :]
     words[:, n] = words[:, 0]
     return words.view(np.uint8).reshape(n + 1, n + 1, 4)
+
+
+_FFT_OUT = int(np.__version__.split(".")[0]) >= 2  # numpy.fft takes ``out`` from NumPy 2.0
 
 
 #: a level's tiles are evolved at multiples of this fraction of the period of its shortest
