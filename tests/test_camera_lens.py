@@ -67,6 +67,7 @@ def test_a_lens_asked_for_again_gets_cached_full_maps():
     assert first.streamed and first.maps is None
     second = L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0)
     assert not second.streamed and second.grid is first.grid
+    assert second.nbytes == first.nbytes + 320 * 240 * (6 + 8)  # the policy's full_bytes
     assert L.lens_maps(320, 240, 250.0, 250.0, -0.04, 0.0) is second
     assert L.lens_maps(320, 240, 250.0, 250.0, -0.05, 0.0).streamed
     assert not L.lens_maps(320, 240, 250.0, 250.0, -0.06, 0.0, full=True).streamed
@@ -281,7 +282,9 @@ def test_a_lens_that_comes_back_after_the_cache_would_have_dropped_it_streams(mo
     number of such maps the cache holds (here 3): one that comes back later streams again
     (maps made for it would have left the cache before it came back)."""
     w, h = 320, 240
-    monkeypatch.setattr(L, "MAP_CACHE_BYTES", 3 * w * h * (6 + 8))
+    L.clear_caches()
+    one = L.lens_maps(w, h, 250.0, 250.0, -0.09, 0.0, full=True).nbytes  # its grid and maps
+    monkeypatch.setattr(L, "MAP_CACHE_BYTES", 3 * one)
     L.clear_caches()
 
     def lens(k1):

@@ -248,9 +248,11 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
     hit = _recall(_MAP_CACHE, key)
     if hit is not None:
         return hit
-    if full is None:
-        full = _comes_back(key) and w * h <= STREAM_PIXELS
     out = _lens_grid(key)
+    if full is None:  # a full lens's nbytes: its grid's, then 6 bytes a pixel per channel's
+        # maps, 8 for the nearest map and the field
+        full_bytes = out.nbytes + w * h * (6 * len(out.grid.src) + 8)
+        full = _comes_back(key, full_bytes) and w * h <= STREAM_PIXELS
     if not full:
         return out
     grid = out.grid
@@ -267,16 +269,14 @@ def lens_maps(w: int, h: int, fx: float, fy: float, k1: float, k2: float,
 _RECENT: OrderedDict = OrderedDict()  # lenses asked for lately, least recent first
 
 
-def _comes_back(key: tuple) -> bool:
+def _comes_back(key: tuple, full_bytes: int) -> bool:
     """Whether lens ``key`` (of :func:`lens_maps`) was asked for among the last N lenses, N
-    the number of its full maps :data:`MAP_CACHE_BYTES` holds (a fixed lens: every time;
-    one of the looks' ~96 lenses at 1080p, N = 5: rarely)."""
-    w, h, *_, ca_red, ca_blue = key
-    per_lens = w * h * (6 * (3 if ca_red or ca_blue else 1) + 8)  # maps, nearest, field
+    how many of its full lenses (``full_bytes`` each) :data:`MAP_CACHE_BYTES` holds (a
+    fixed lens: every time; one of the looks' ~96 lenses at 1080p, N = 5: rarely)."""
     seen = key in _RECENT
     _RECENT[key] = None
     _RECENT.move_to_end(key)
-    while len(_RECENT) > max(1, MAP_CACHE_BYTES // per_lens):
+    while len(_RECENT) > max(1, MAP_CACHE_BYTES // full_bytes):
         _RECENT.popitem(last=False)
     return seen
 
