@@ -31,6 +31,7 @@ from .foam import (
     ring_strength,
     splash_strength,
 )
+from .gloss import add_gloss, roughness
 from .lighting import Lighting, irradiance_terms, lambert
 from .submerge import (
     BLUR_PER_METRE,
@@ -185,8 +186,9 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     of each pixel under the wavy surface, metres (negative: above it).
 
     Linear radiance: Lambertian under the sun, the sky and the sea's upwelling light
-    (:func:`~sdcomp.render.lighting.lambert`) above a wavy waterline; below it, lit by the
-    refracted sun and seen through the water (:func:`~sdcomp.render.submerge.submerge`);
+    (:func:`~sdcomp.render.lighting.lambert`) with a glossy surface's mirrored sky and sun
+    highlight (:func:`~sdcomp.render.gloss.add_gloss`) above a wavy waterline; below it,
+    lit by the refracted sun and seen through the water (:func:`~sdcomp.render.submerge.submerge`);
     hazed with the distance; times the exposure gain, then sRGB."""
     alpha, albedo, normal = prepared[:3]
     water = lit.water
@@ -194,8 +196,11 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     up_dir = to_view[:, 2]
     sun, sky, up = irradiance_terms(water, column.sun, column.deep)
     tinted = albedo * np.asarray(pl.tint, np.float32)
-    above = lambert(tinted, normal, to_view @ lit.sun.astype(np.float32), up_dir, sun, sky,
-                    up)
+    sun_pose = to_view @ lit.sun.astype(np.float32)
+    above = lambert(tinted, normal, sun_pose, up_dir, sun, sky, up)
+    if (alpha_g := roughness(pl.asset)) is not None:
+        add_gloss(above, alpha, normal, to_view.T, sun_pose, sun, lit.sky_table,
+                  up / np.float32(math.pi), alpha_g)
     params = scene.water
     ripples = waterline_level(height.shape, pitch_m, ripple_height(params.wind),
                               RIPPLE_LENGTH, ripple_seed)

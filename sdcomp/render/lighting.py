@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..scene.camera import camera_basis
 from ..scene.scene import Scene
+from .gloss import sky_table
 from .water import WaterLight
 
 #: Fresnel reflectance of the sea for diffuse light from above (its irradiance albedo)
@@ -34,6 +36,12 @@ class Lighting:
     def sun(self) -> np.ndarray:
         """(3,) float64 unit vector towards the sun (world frame)."""
         return np.asarray(self.water.sun, np.float64)
+
+    @cached_property
+    def sky_table(self) -> np.ndarray:
+        """The sky as glossy surfaces mirror it (:func:`~sdcomp.render.gloss.sky_table`),
+        computed once per image."""
+        return sky_table(self.water.sky)
 
     @property
     def gain(self) -> float:
