@@ -120,3 +120,46 @@ def test_only_hard_hulls_are_glossy():
     assert roughness("boat-03") == roughness("jetski-00") == roughness("buoy-09") == 0.1
     for matte in ("swimmer-04", "life_saving_appliances-01", "bluerov2", "bluerov2-heavy"):
         assert roughness(matte) is None
+
+
+def test_a_render_glosses_the_boat_and_leaves_the_swimmer_and_water_alone(sprites_dir,
+                                                                          monkeypatch):
+    """The same scene (a boat and a swimmer, clean look) with gloss and with every asset
+    matte: only the boat's pixels change, and its dark parts get brighter (they mirror the
+    sky; the white hull is clipped either way)."""
+    from dataclasses import replace
+
+    import cv2
+
+    from sdcomp.pipeline import Generator
+    from sdcomp.render import layers
+    from sdcomp.scene.camera import CameraPose
+    from sdcomp.scene.config import GeneratorConfig
+    from sdcomp.scene.look_table import clean_look
+    from sdcomp.scene.presets import preset
+    from sdcomp.scene.scene import Placement, Role
+
+    g = Generator(GeneratorConfig.from_mapping({**preset("seadronessee"), "width": 320,
+                                                "height": 320, "seed": 3}), sprites_dir)
+    m = g.model
+    base = g.scene(0)
+    pls = (Placement(Role.OBJECT, "boat-00", 2, -2.5, 0.0, 30.0, 0.0, 0.0, 0.0),
+           Placement(Role.OBJECT, "swimmer-00", 1, 3.5, 1.0, 0.0, 0.0, 0.0, 0.0))
+    scene = replace(base, placements=pls, camera=CameraPose(15.0, 90.0, 0.0),
+                    water=replace(base.water, sky="clear", cloud_cover=0.0,
+                                  sun_elevation=50.0),
+                    look=clean_look(m.width, m.height, m.fx, m.fy), defocus_blur=None,
+                    shore=None, hills=None)
+    glossy = g.render_scene(scene)
+    monkeypatch.setattr(layers, "roughness", lambda asset: None)
+    matte = g.render_scene(scene)
+    np.testing.assert_array_equal(glossy.instances, matte.instances)
+    ids = {o.category_id: o.instance_id for o in glossy.objects}
+    boat = cv2.dilate((glossy.instances == ids[2]).astype(np.uint8), np.ones((5, 5))) > 0
+    a, b = glossy.image.astype(np.int16), matte.image.astype(np.int16)
+    np.testing.assert_array_equal(a[~boat], b[~boat])  # the swimmer and the water
+    inside = glossy.instances == ids[2]
+    assert np.abs(a[inside] - b[inside]).max() > 20
+    la, lb = a[inside].sum(1), b[inside].sum(1)
+    dark = lb < np.percentile(lb, 25)
+    assert la[dark].mean() > lb[dark].mean() + 10
