@@ -1,24 +1,24 @@
-"""Gloss: the light an object's surface reflects like a mirror, on top of its diffuse colour.
+"""Gloss: the light a hard object's surface reflects like a mirror, on top of its diffuse
+colour.
 
-Paint, gelcoat, plastic, rubber and wet skin or hair are dielectrics whose surface reflects
-about 4 % of the light at normal incidence (Fresnel's ``F0`` for a refractive index near 1.5),
-more at grazing incidence (Schlick's approximation ``F = F0 + (1 - F0) (1 - cos)^5``), and
-lets the rest in to be scattered back as the diffuse colour (``1 - F`` of the Lambertian
-term). What the mirror shows:
+Gelcoat, paint and moulded plastic are dielectrics whose surface reflects about 4 % of the
+light at normal incidence (Fresnel's ``F0`` for a refractive index near 1.5), more at grazing
+incidence (Schlick's approximation ``F = F0 + (1 - F0) (1 - cos)^5``), and lets the rest in
+to be scattered back as the diffuse colour (``1 - F`` of the Lambertian term). What the
+mirror shows:
 
 - the **sky** in the reflected direction ``r = 2 (n . v) n - v`` (or, for a surface facing
-  down, the sea's light from below), blurred by the surface's roughness: a white hull seen
-  obliquely mirrors the bright sky near the horizon as the water does, a wet dark head the
-  sky above it;
+  down, the sea's light from below), blurred by 0.2 radians: a white hull seen obliquely
+  mirrors the bright sky near the horizon as the water does, a black seat the sky above it;
 - the **sun**, as a highlight: the microfacet model with the GGX (Trowbridge-Reitz)
   distribution of roughness ``alpha`` (Walter et al. 2007), radiance
   ``E_sun F(v . h) D(n . h) / (4 (n . v))`` for the half vector ``h`` between the view and
-  the sun (the masking term taken as 1); where a curved hull, a windscreen or a wet head
+  the sun (the masking term taken as 1); where a curved hull, a windscreen or a round buoy
   faces the half vector, a small, nearly white glint.
 
-Directions are unit vectors in one frame (the sprite pose's: right, up, toward the camera,
-so the view ``v`` is +z there). Radiances are relative linear RGB before exposure, as
-:mod:`sdcomp.render.lighting` has them.
+Which kinds are glossy: :data:`ROUGHNESS`. Directions are unit vectors in one frame (the
+sprite pose's: right, up, toward the camera, so the view ``v`` is +z there). Radiances are
+relative linear RGB before exposure, as :mod:`sdcomp.render.lighting` has them.
 """
 
 from __future__ import annotations
@@ -32,14 +32,13 @@ from .water.sky import Sky
 
 F0 = 0.04  #: Fresnel reflectance at normal incidence (refractive index 1.5)
 #: GGX roughness (alpha) of the glossy kinds' surfaces, by the prefix of the asset key:
-#: gelcoat, paint and moulded plastic of hulls, jet skis and buoys, polished (GGX's long
-#: tail grows with alpha squared: at 0.2 a flat red buoy top seen from above, the sun 35
-#: degrees off its mirror direction, turned pink; at 0.1 it keeps its colour and a sphere
-#: its small highlight). The other kinds stay
-#: matte: swimmers (hair, skin, the nylon jersey of wetsuits and life jackets), whose
-#: colours are fitted to real boxes as seen (with gloss their median contrast against the
-#: water went from -1.16 to -0.59, real -1.88), the fabric and foam of life-saving
-#: appliances, the BlueROV2 and clutter
+#: the gelcoat, paint and moulded plastic of hulls, jet skis and buoys, polished (GGX's long
+#: tail grows with alpha squared: at 0.1 a round buoy's highlight is a small spot and flat
+#: tops far from the sun's mirror direction get little of it; what pales a red top under a
+#: blue sky is the mirrored sky). The other kinds stay matte: swimmers (hair, skin, the nylon jersey
+#: of wetsuits and life jackets), whose colours are fitted to real boxes as seen (with gloss
+#: their median contrast against the water went from -1.16 to -0.59, real -1.88), the
+#: fabric and foam of life-saving appliances, the BlueROV2 and clutter
 ROUGHNESS = {"boat": 0.1, "jetski": 0.1, "buoy": 0.1}
 MIN_COS_VIEW = 0.1  #: the highlight's 1 / (4 n.v) is capped at grazing views (masking)
 SKY_TEXELS = 33  #: the sky table's side: the upper hemisphere in stereographic projection
