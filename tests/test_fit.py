@@ -221,6 +221,28 @@ def test_statistics_respond_to_blur_noise_and_blocks():
     assert image_stats(base, np.zeros(9, bool)) is None
 
 
+def test_highlights_carry_a_camera_cast_but_not_the_waters_colour():
+    """The brightest 1 % of the water's pixels are the surface's neutral reflection: green
+    water leaves their colour as it is, a green camera cast (gains and lifted blacks, as
+    the sim2real stand-in's) tints them, while both make the frame's mean colour green."""
+    rng = np.random.default_rng(1)
+    water = np.clip(rng.normal(0, 6, (192, 192, 3)) + (60, 90, 110), 0, 255)
+    sparkle = rng.random((192, 192)) < 0.012  # a little over the 1 % measured
+    blue = water.copy()
+    blue[sparkle] = 235
+    green = np.clip(rng.normal(0, 6, (192, 192, 3)) + (50, 110, 70), 0, 255)
+    green[sparkle] = 235
+    cast = np.clip(blue * (0.55, 0.75, 0.6) + (10, 35, 20), 0, 255)
+    s_blue, s_green, s_cast = (image_stats(a.astype(np.uint8)) for a in (blue, green, cast))
+    assert s_blue and s_green and s_cast
+    assert s_green["chroma_b"] < s_blue["chroma_b"] - 0.04  # green water ...
+    assert s_cast["chroma_b"] < s_blue["chroma_b"] - 0.04  # ... and a green cast
+    assert abs(s_green["highlight_r"] - 1 / 3) < 0.005  # the sparkles stay white
+    assert abs(s_green["highlight_b"] - 1 / 3) < 0.005
+    assert s_cast["highlight_r"] < 1 / 3 - 0.05  # the cast tints them
+    assert {"highlight_r", "highlight_b"} <= set(STATS)
+
+
 def test_water_inversion_picks_the_nearest_colour():
     fine = np.linspace(0, 1, 21)
     table = {"ocean": np.stack([0.30 + 0 * fine, 0.37 - 0.02 * fine], 1),

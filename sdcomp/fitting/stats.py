@@ -5,7 +5,12 @@ patch mean of Rec. 601 luma, 0-255), ``saturation`` (median patch mean HSV satur
 ``highpass_std`` (median patch std of luma minus its 9 x 9 box blur, 8-bit levels),
 ``glint_fraction`` (mean share of pixels with luma >= 230, 0-1) and the water's colour as
 chromaticity ``chroma_r`` = R / (R + G + B), ``chroma_b`` = B / (R + G + B) (medians of the
-patches' mean sRGB levels).
+patches' mean sRGB levels); ``highlight_r``, ``highlight_b``: the same chromaticity of the
+brightest :data:`HIGHLIGHT_SHARE` of the patches' pixels (by luma: the waves' mirrored sky,
+glitter, foam). The surface's reflection is nearly neutral whatever the water, so the
+highlights carry the sky's and the camera's colour and not the water's: a colour cast of
+the camera tints them, green water does not (the two explain a green frame's mean colour
+equally well).
 
 Camera: ``noise`` (8-bit levels: Immerkaer's estimate, sqrt(pi / 2) / 6 mean |Laplacian
 residual|, the 25th percentile over patches, where texture adds least), ``noise_slope``
@@ -28,18 +33,21 @@ from ..report.realism.patches import image_maps, maps_patch_stats, to_patches
 
 #: the statistics matched, in report order
 STATS = ("luminance", "saturation", "highpass_std", "glint_fraction", "chroma_r", "chroma_b",
-         "noise", "sharpness", "blockiness", "vignetting")
+         "highlight_r", "highlight_b", "noise", "sharpness", "blockiness", "vignetting")
 #: report-only statistics (measured, not matched)
 EXTRA = ("noise_slope",)
 #: a difference of this much in a statistic counts as one unit of the fit's loss
 SCALES = {"luminance": 12.0, "saturation": 0.05, "highpass_std": 1.0, "glint_fraction": 0.01,
-          "chroma_r": 0.012, "chroma_b": 0.012, "noise": 0.4, "sharpness": 0.03,
+          "chroma_r": 0.012, "chroma_b": 0.012, "highlight_r": 0.015, "highlight_b": 0.015,
+          "noise": 0.4, "sharpness": 0.03,
           "blockiness": 0.05, "vignetting": 0.05}
 UNITS = {"luminance": "0-255", "saturation": "0-1", "highpass_std": "levels",
          "glint_fraction": "0-1", "chroma_r": "R/(R+G+B)", "chroma_b": "B/(R+G+B)",
+         "highlight_r": "R/(R+G+B)", "highlight_b": "B/(R+G+B)",
          "noise": "levels", "sharpness": "ratio", "blockiness": "ratio",
          "vignetting": "0-1", "noise_slope": "levels^2/level"}
 BLOCK_FLOOR = 1.0  #: levels added to the inside step of :func:`blockiness`
+HIGHLIGHT_SHARE = 0.01  #: the brightest share of water pixels whose colour ``highlight_*`` is
 _LAPLACE = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 
@@ -52,8 +60,10 @@ def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None) -> dict[str, fl
     if ps["luminance"].size == 0:
         return None
     sel = slice(None) if keep is None else np.asarray(keep, bool)
-    rgb_mean = to_patches(rgb)[sel].reshape(ps["luminance"].size, -1, 3).mean(axis=1)
+    pixels = to_patches(rgb)[sel].reshape(ps["luminance"].size, -1, 3)
+    rgb_mean = pixels.mean(axis=1)
     chroma = rgb_mean / np.maximum(rgb_mean.sum(axis=1, keepdims=True), 1e-6)
+    high = highlight_chroma(pixels.reshape(-1, 3), to_patches(maps.y)[sel].reshape(-1))
     noise = _patch_noise(maps.y)[sel]
     fine = to_patches(maps.y - cv2.blur(maps.y, (3, 3), borderType=cv2.BORDER_REFLECT_101)
                       )[sel].reshape(noise.size, -1).std(axis=1)
@@ -65,12 +75,27 @@ def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None) -> dict[str, fl
         "glint_fraction": float(np.mean(ps["glint_fraction"])),
         "chroma_r": float(np.median(chroma[:, 0])),
         "chroma_b": float(np.median(chroma[:, 2])),
+        "highlight_r": high[0],
+        "highlight_b": high[1],
         "noise": float(np.percentile(noise, 25)),
         "sharpness": float(np.median(sharp)),
         "blockiness": blockiness(maps.y),
         "vignetting": vignetting(maps.y),
         "noise_slope": _noise_slope(ps["luminance"], noise),
     }
+
+
+def highlight_chroma(rgb: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """(R, B) / (R + G + B) of the summed colour of the brightest :data:`HIGHLIGHT_SHARE`
+    of the pixels ``rgb`` (n, 3) uint8 by their luma ``y`` (n,) float (at least one pixel);
+    NaN for no pixels or a black selection."""
+    if y.size == 0:
+        return math.nan, math.nan
+    k = max(1, int(round(y.size * HIGHLIGHT_SHARE)))
+    top = np.argpartition(y, y.size - k)[y.size - k:]
+    total = rgb[top].sum(axis=0, dtype=np.float64)
+    s = float(total.sum())
+    return (float(total[0] / s), float(total[2] / s)) if s > 0 else (math.nan, math.nan)
 
 
 def _patch_noise(y: np.ndarray) -> np.ndarray:
