@@ -47,7 +47,7 @@ UNITS = {"luminance": "0-255", "saturation": "0-1", "highpass_std": "levels",
          "noise": "levels", "sharpness": "ratio", "blockiness": "ratio",
          "vignetting": "0-1", "noise_slope": "levels^2/level"}
 BLOCK_FLOOR = 1.0  #: levels added to the inside step of :func:`blockiness`
-HIGHLIGHT_SHARE = 0.01  #: the brightest share of water pixels whose colour ``highlight_*`` is
+HIGHLIGHT_SHARE = 0.01  #: ``highlight_*`` is the colour of this brightest share of pixels
 _LAPLACE = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 

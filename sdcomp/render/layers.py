@@ -198,9 +198,9 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     tinted = albedo * np.asarray(pl.tint, np.float32)
     sun_pose = to_view @ lit.sun.astype(np.float32)
     above = lambert(tinted, normal, sun_pose, up_dir, sun, sky, up)
-    if (alpha_g := roughness(pl.asset)) is not None:
+    if (rough := roughness(pl.asset)) is not None:
         add_gloss(above, alpha, normal, to_view.T, sun_pose, sun, lit.sky_table,
-                  up / np.float32(math.pi), alpha_g)
+                  up / np.float32(math.pi), rough)
     params = scene.water
     ripples = waterline_level(height.shape, pitch_m, ripple_height(params.wind),
                               RIPPLE_LENGTH, ripple_seed)
