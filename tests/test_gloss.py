@@ -11,13 +11,14 @@ import pytest
 
 from sdcomp.render.gloss import (
     F0,
+    N_HULL,
     add_gloss,
     ggx,
     roughness,
-    schlick,
     sky_lookup,
     sky_table,
 )
+from sdcomp.render.water.optics import schlick
 from sdcomp.render.water.sky import make_sky
 
 
@@ -27,7 +28,7 @@ def sky():
 
 
 def test_fresnel_runs_from_f0_at_normal_incidence_to_one_at_grazing():
-    f = schlick(np.array([1.0, 0.5, 0.0], np.float32))
+    f = schlick(np.array([1.0, 0.5, 0.0], np.float32), N_HULL)
     assert f[0] == pytest.approx(F0)
     assert f[2] == pytest.approx(1.0)
     assert F0 < f[1] < 0.1  # 60 degrees: still near F0 (0.059 for n = 1.5)
@@ -95,7 +96,7 @@ def test_the_sun_in_the_mirror_direction_makes_the_highlight_peak(sky):
                     np.array([math.sin(math.radians(60)), 0.0, math.cos(math.radians(60))]),
                     sun, table, np.zeros(3, np.float32), 0.2)
     c30 = np.float32(math.cos(math.radians(30)))
-    tail = float(ggx(c30, 0.2)) * float(schlick(c30)) / 4.0
+    tail = float(ggx(c30, 0.2)) * float(schlick(c30, N_HULL)) / 4.0
     np.testing.assert_allclose(off - sky_only, tail, rtol=1e-4)
     assert tail < peak / 40
 
@@ -112,7 +113,7 @@ def test_a_surface_facing_the_sea_mirrors_the_sea():
     out = add_gloss(np.zeros((1, 1, 3), np.float32), np.ones((1, 1), np.float32), n,
                     to_world, np.array([0.0, 0.5, 0.5]), np.zeros(3, np.float32),
                     sky_table(sky), below, 0.15)
-    f = float(schlick(np.float32(0.5)))
+    f = float(schlick(np.float32(0.5), N_HULL))
     np.testing.assert_allclose(out[0, 0], f * below, rtol=1e-5)
 
 

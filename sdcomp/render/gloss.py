@@ -28,9 +28,11 @@ import math
 import cv2
 import numpy as np
 
+from .water.optics import schlick
 from .water.sky import Sky
 
-F0 = 0.04  #: Fresnel reflectance at normal incidence (refractive index 1.5)
+N_HULL = 1.5  #: refractive index of gelcoat, paint and plastic
+F0 = ((N_HULL - 1) / (N_HULL + 1)) ** 2  #: Fresnel reflectance at normal incidence (0.04)
 #: GGX roughness (alpha) of the glossy kinds' surfaces, by the prefix of the asset key:
 #: the gelcoat, paint and moulded plastic of hulls, jet skis and buoys, polished (GGX's long
 #: tail grows with alpha squared: at 0.1 a round buoy's highlight is a small spot and flat
@@ -79,14 +81,6 @@ def sky_lookup(table: np.ndarray, d: np.ndarray) -> np.ndarray:
     return out.reshape(-1, 3)
 
 
-def schlick(cos: np.ndarray) -> np.ndarray:
-    """Fresnel reflectance (float32, shaped like ``cos``) of a surface seen at incidence
-    cosine ``cos`` (Schlick's approximation with :data:`F0`)."""
-    c = np.clip(1.0 - cos, 0.0, 1.0).astype(np.float32)
-    c2 = c * c
-    return np.float32(F0) + np.float32(1.0 - F0) * (c2 * c2 * c)
-
-
 def ggx(cos_h: np.ndarray, alpha: float) -> np.ndarray:
     """The GGX normal distribution D (per steradian, float32 like ``cos_h``) at the cosine
     ``cos_h`` between the normal and the half vector, roughness ``alpha``."""
@@ -119,7 +113,7 @@ def add_gloss(diffuse: np.ndarray, alpha: np.ndarray, normal: np.ndarray,
         return diffuse
     n = normal[covered]
     nz = n[:, 2]
-    f = schlick(np.clip(nz, 0.0, 1.0))
+    f = schlick(nz, N_HULL)
     r = n * (2.0 * nz)[:, None]
     r[:, 2] -= 1.0
     r_world = r @ np.asarray(to_world, np.float32).T
@@ -133,7 +127,7 @@ def add_gloss(diffuse: np.ndarray, alpha: np.ndarray, normal: np.ndarray,
         h = s + np.array([0.0, 0.0, 1.0], np.float32)
         h /= max(float(np.linalg.norm(h)), 1e-6)
         cos_h = np.clip(n @ h, 0.0, 1.0)
-        spec = ggx(cos_h, rough) * np.float32(schlick(np.asarray(h[2], np.float32)))
+        spec = ggx(cos_h, rough) * np.float32(schlick(float(h[2]), N_HULL))
         spec *= ((n @ s > 0.0) & (nz > 0.0)) / (4.0 * np.maximum(nz, MIN_COS_VIEW))
         out += spec[:, None] * np.asarray(sun, np.float32)
     diffuse[covered] = out
