@@ -119,7 +119,9 @@ def test_a_surface_facing_the_sea_mirrors_the_sea():
 
 def test_only_hard_hulls_are_glossy():
     assert roughness("boat-03") == roughness("jetski-00") == roughness("buoy-09") == 0.1
-    for matte in ("swimmer-04", "life_saving_appliances-01", "bluerov2", "bluerov2-heavy"):
+    assert roughness("clutter:boat-03") == roughness("clutter:buoy-01") == 0.1  # distractors
+    for matte in ("swimmer-04", "life_saving_appliances-01", "bluerov2", "bluerov2-heavy",
+                  "clutter:log", "clutter:swimmer-02", "boat-7.glb"):
         assert roughness(matte) is None
 
 

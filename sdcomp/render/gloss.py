@@ -28,28 +28,30 @@ import math
 import cv2
 import numpy as np
 
+from ..scene.objects import asset_kind
 from .water.optics import schlick
 from .water.sky import Sky
 
 N_HULL = 1.5  #: refractive index of gelcoat, paint and plastic
 F0 = ((N_HULL - 1) / (N_HULL + 1)) ** 2  #: Fresnel reflectance at normal incidence (0.04)
-#: GGX roughness (alpha) of the glossy kinds' surfaces, by the prefix of the asset key:
+#: GGX roughness (alpha) of the glossy kinds' surfaces, objects and clutter alike:
 #: the gelcoat, paint and moulded plastic of hulls, jet skis and buoys, polished (GGX's long
 #: tail grows with alpha squared: at 0.1 a round buoy's highlight is a small spot and flat
 #: tops far from the sun's mirror direction get little of it; what pales a red top under a
 #: blue sky is the mirrored sky). The other kinds stay matte: swimmers (hair, skin, the nylon jersey
 #: of wetsuits and life jackets), whose colours are fitted to real boxes as seen (with gloss
 #: their median contrast against the water went from -1.16 to -0.59, real -1.88), the
-#: fabric and foam of life-saving appliances, the BlueROV2 and clutter
+#: fabric and foam of life-saving appliances, the BlueROV2 and clutter-only meshes (logs)
 ROUGHNESS = {"boat": 0.1, "jetski": 0.1, "buoy": 0.1}
 MIN_COS_VIEW = 0.1  #: the highlight's 1 / (4 n.v) is capped at grazing views (masking)
 SKY_TEXELS = 33  #: the sky table's side: the upper hemisphere in stereographic projection
 
 
 def roughness(asset: str) -> float | None:
-    """The GGX roughness of asset ``asset`` (an atlas key such as ``boat-03``); None for a
+    """The GGX roughness of asset ``asset`` (a key such as ``boat-03`` or
+    ``clutter:boat-03``, by its kind: :func:`~sdcomp.scene.objects.asset_kind`); None for a
     matte one (no gloss)."""
-    return ROUGHNESS.get(asset.rsplit("-", 1)[0])
+    return ROUGHNESS.get(asset_kind(asset))
 
 
 def sky_table(sky: Sky, blur: float = 0.2) -> np.ndarray:

@@ -315,12 +315,19 @@ def resolve_clutter_kinds(kinds: tuple[str, ...], object_meshes: list[str]
     return kinds
 
 
+def asset_kind(asset: str) -> str:
+    """The kind of the object or clutter drawn from ``asset``: ``boat`` for ``boat-03`` and
+    ``clutter:boat-03``, else the mesh name itself (``bluerov2``, ``log``, a file)."""
+    name = asset.removeprefix(CLUTTER_PREFIX)
+    return library.kind_of(name) or name
+
+
 def under_way(asset: str) -> tuple[float, float, float]:
     """(chance of being under way, slowest, fastest m/s) of the object or clutter drawn
     from ``asset`` (:data:`UNDER_WAY` by its kind; (0, 0, 0) for kinds that do not
     travel)."""
     name = asset.removeprefix(CLUTTER_PREFIX)
-    kind = library.kind_of(name) or name
+    kind = asset_kind(asset)
     if kind == "swimmer" and not _swimming(name):
         return (0.0, 0.0, 0.0)  # treading, waving, floating: drifting, not swimming
     return UNDER_WAY.get(kind, (0.0, 0.0, 0.0))
