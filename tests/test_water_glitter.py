@@ -297,3 +297,50 @@ def test_at_most_one_sparkle_per_facet():
     assert np.all(got <= e + 1e-5)  # saturation only ever lowers the count
     cap = np.broadcast_to((ln_n - GLINT_LN0) / GLINT_LN_STEP, e.shape)  # one per facet
     assert np.abs(got - cap)[x > 100].max() < 1e-3
+
+
+def _isolated_sparkles(value: float, n: int = 400, seed: int = 5):
+    """``n`` sparkles of ``value`` on a grid 6 px apart (each alone in its 3 x 3
+    neighbourhood), spread by :func:`glitter.spread_disc` with the shares of glitter
+    noise (the textures' law, ``-log10(1 - u) 255 / 6`` clipped to 255); returns their 3 x 3
+    neighbourhoods (n, 3, 3)."""
+    side = int(math.ceil(math.sqrt(n)))
+    g = np.zeros((6 * side, 6 * side), np.float32)
+    g[3::6, 3::6] = value
+    u = np.random.default_rng(seed).random(g.shape)
+    noise = np.clip(-np.log10(1.0 - u) * 255.0 / 6.0, 0.0, 255.0).astype(np.float32)
+    glitter.spread_disc(g, glitter.shares_of(noise))
+    blocks = g.reshape(side, 6, side, 6)[:, 2:5, :, 2:5].transpose(0, 2, 1, 3)
+    return blocks.reshape(-1, 3, 3)[:n]
+
+
+def test_a_sparkle_spreads_over_a_disc_with_the_shares_drawn():
+    """The core keeps its value; an edge neighbour gets an exponential share of it (mean
+    EDGE_SHARE, at most MAX_SHARE), a corner one CORNER_SHARE of that: the mean light of a
+    sparkle is 1 + 4 (1 + CORNER_SHARE) E[min(s, MAX_SHARE)] of its value."""
+    b = _isolated_sparkles(1.0, n=2500)
+    assert np.all(b[:, 1, 1] == 1.0)
+    edges = np.concatenate([b[:, 0, 1], b[:, 1, 0], b[:, 1, 2], b[:, 2, 1]])
+    corners = np.concatenate([b[:, 0, 0], b[:, 0, 2], b[:, 2, 0], b[:, 2, 2]])
+    assert edges.max() <= glitter.MAX_SHARE and corners.max() <= glitter.MAX_SHARE
+    m, cap = glitter.EDGE_SHARE, glitter.MAX_SHARE
+    capped = m * (1.0 - math.exp(-cap / m))  # E[min(s, cap)], s exponential of mean m
+    assert abs(edges.mean() - capped) < 0.03
+    assert abs(corners.mean() / edges.mean() - glitter.CORNER_SHARE) < 0.05
+    # exponential: the median share is ln 2 of the mean
+    assert abs(np.median(edges) - math.log(2) * m) < 0.03
+
+
+def test_saturated_sparkles_are_blobs_of_many_shapes_not_one_cross():
+    """A sparkle three times white saturates its own pixel and the neighbours whose share
+    reaches a third: blobs of 1 to 9 pixels in many shapes, few of them the plus that one
+    fixed share of 0.45 made of every such sparkle."""
+    b = _isolated_sparkles(3.0)
+    sat = b >= 1.0
+    shapes = {s.tobytes() for s in sat}
+    plus = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
+    share_plus = float(np.mean([np.array_equal(s, plus) for s in sat]))
+    sizes = sat.reshape(len(sat), -1).sum(1)
+    assert len(shapes) >= 40, len(shapes)
+    assert share_plus < 0.2, share_plus
+    assert sizes.min() == 1 and sizes.max() >= 7
