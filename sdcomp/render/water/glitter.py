@@ -274,7 +274,7 @@ def spread_disc(g: np.ndarray, share: np.ndarray) -> None:
     shape, where one fixed share made every one the same cross."""
     edges = cv2.dilate(g, _CROSS)
     corners = cv2.dilate(g, _CORNERS)
-    corners *= np.float32(CORNER_SHARE)
+    np.multiply(corners, np.float32(CORNER_SHARE), out=corners)
     cv2.max(edges, corners, dst=edges)
     cv2.multiply(edges, share, dst=edges)
     cv2.max(g, edges, dst=g)
