@@ -17,6 +17,7 @@ hidden setting (docs/fit.md states the same):
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from pathlib import Path
 
@@ -30,7 +31,7 @@ from sdcomp.fitting import fit_footage
 from sdcomp.fitting.config_file import config_text, write_config
 from sdcomp.fitting.footage import working_size
 from sdcomp.fitting.report import markdown
-from sdcomp.fitting.search import CANDIDATES, Renderer, invert_water
+from sdcomp.fitting.search import CANDIDATES, Renderer, cast_start, invert_water
 from sdcomp.fitting.stats import STATS, blockiness, distance, image_stats, loss, vignetting
 from sdcomp.pipeline import Generator
 from sdcomp.run.record import encode_image
@@ -152,6 +153,11 @@ def test_white_balance_and_exposure_fit_a_colour_cast(tmp_path, sprites_dir):
     c = runs["with"].config
     assert c.wb_red is not None and _high(c.wb_red) < 1.0, c.to_dict()
     assert c.wb_blue is not None and _high(c.wb_blue) < 1.0, c.to_dict()
+    # the green highlights started a second search from their cast; the report says so
+    cast = runs["with"].search.cast
+    assert cast is not None and cast["wb_red"] < 1.0 and cast["wb_blue"] < 1.0, cast
+    assert runs["without"].search.cast is None  # (white balance not searched)
+    assert "highlights carry a colour cast" in markdown(runs["with"], "f.toml", None)
     d = distance(runs["with"].search.summary, foot)
     d_dflt = distance(runs["with"].search.default_summary, foot)
     assert d["saturation"] < d_dflt["saturation"] and d["chroma_r"] < 3, d
@@ -181,14 +187,20 @@ def test_contrast_is_fitted_to_a_vivid_camera(tmp_path, sprites_dir):
 
 def test_shot_noise_is_fitted_to_a_noisy_camera(tmp_path, sprites_dir):
     """Footage of a far noisier sensor than any look draws (a dim scene's shot noise, 0.08,
-    where the looks draw at most 6e-4) is fitted with a fixed shot noise of at least 0.02:
-    the frames' median noise is reached (measured: 0.68 levels against the footage's
-    0.71; the look alone 0.37) and the loss falls (25.2 against 45.1)."""
+    where the looks draw at most 6e-4), under an overcast sky, is fitted with a fixed shot
+    noise of at least 0.02: the frames' median noise is reached (measured: 0.577 levels
+    against the footage's 0.572; the look alone 0.257) and the loss falls (14.6 against
+    79.0). The sky is searched too and the footage has no glitter: the noise statistic
+    counts sparkles as noise (a frame full of glitter measures 17-20 levels), so under a
+    sunny sky the shot noise chosen turned on how the sparkles are drawn (a near tie of
+    the losses, 35.6 for 0.02 against 35.8 for 0.06, once each sparkle drew its own
+    spread)."""
     make_footage(tmp_path / "noisy", {"water": ["coastal", "lake"], "wind": "2-6",
-                                      "shot_noise": 0.08}, sprites_dir)
+                                      "shot_noise": 0.08, "sky": ["overcast"]}, sprites_dir)
     runs = {name: fit_footage(tmp_path / "noisy", sprites_dir=sprites_dir, n_render=RENDERS,
                               passes=1, groups=groups)
-            for name, groups in (("with", ("look", "noise")), ("without", ("look",)))}
+            for name, groups in (("with", ("sky", "look", "noise")),
+                                 ("without", ("sky", "look")))}
     foot = runs["with"].footage.summary
     miss = {k: abs(r.search.summary["noise"][1] - foot["noise"][1]) for k, r in runs.items()}
     assert miss["with"] < 0.5 * miss["without"], miss
@@ -241,6 +253,33 @@ def test_highlights_carry_a_camera_cast_but_not_the_waters_colour():
     assert abs(s_green["highlight_b"] - 1 / 3) < 0.005
     assert s_cast["highlight_r"] < 1 / 3 - 0.05  # the cast tints them
     assert {"highlight_r", "highlight_b"} <= set(STATS)
+
+
+def _highlights(r: float, b: float) -> dict:
+    """A summary dict holding only highlight shares (p10, p50, p90 alike)."""
+    return {"highlight_r": (r, r, r), "highlight_b": (b, b, b)}
+
+
+def test_a_cast_in_the_highlights_starts_a_second_search_from_it():
+    """The footage's highlights over the defaults' give the white balance the second search
+    starts from: the stand-in's green cast (its white at R 150, G 226, B 173) gives red and
+    blue gains well under 1 (linear: the encoded ratios to the power 2.2), snapped to the
+    candidates; white highlights, unknown ones or white balance left out of the search
+    give none."""
+    base = GeneratorConfig()
+    white = _highlights(1 / 3, 1 / 3)
+    total = 150 + 226 + 173
+    cast = cast_start(base, _highlights(150 / total, 173 / total), white, None)
+    assert cast is not None
+    # R/G 150/226 -> 0.41 linear, B/G 173/226 -> 0.56: the nearest candidates
+    assert (_low(cast.wb_red), _low(cast.wb_blue)) == (0.4, 0.6), cast.to_dict()
+    warm = cast_start(base, _highlights(0.38, 0.29), white, None)
+    assert warm is not None and _low(warm.wb_red) > 1.0 > _low(warm.wb_blue)
+    assert cast_start(base, _highlights(0.335, 0.33), white, None) is None  # no cast
+    assert cast_start(base, _highlights(math.nan, 0.3), white, None) is None
+    assert cast_start(base, _highlights(0.27, 0.31), white, ("wind", "wb_red")) is None
+    both = cast_start(base, _highlights(0.27, 0.31), white, ("wb_red", "wb_blue"))
+    assert both is not None
 
 
 def test_water_inversion_picks_the_nearest_colour():

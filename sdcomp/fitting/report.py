@@ -75,6 +75,13 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
         lines.append(f"| {key} | {_value(result.config, key)} | {_value(default, key)} |")
     lines += ["", f"Water: frames nearest each type's colour (the last inversion): "
                   f"{s.water_votes}.", ""]
+    if s.cast is not None:
+        c = s.cast
+        lines += [f"The footage's highlights carry a colour cast: the search ran again from "
+                  f"white balance red {c['wb_red']:g}, blue {c['wb_blue']:g} (loss "
+                  f"{c['loss_cast']:.3g}, against {c['loss_defaults']:.3g} from the "
+                  f"defaults' camera); the fit from "
+                  f"{'the cast' if c['kept'] == 'cast' else 'the defaults'} is kept.", ""]
     if picture:
         lines += ["## Crops", "", f"![footage, fitted, defaults]({picture})", "",
                   f"Rows: footage, fitted, defaults; {CROP_PX} px crops at the working size."]
@@ -135,7 +142,7 @@ def write_report(result: FitResult, folder: str | Path, config_path: str) -> Pat
                                                        result.footage.height],
             "geometry": result.geometry, "seconds": result.search.seconds,
             "statistics": comparison(result), "config": result.config.to_dict(),
-            "water_votes": result.search.water_votes,
+            "water_votes": result.search.water_votes, "cast_search": result.search.cast,
             "trials": [{"group": t.group, "settings": t.settings, "loss": t.loss}
                        for t in result.search.trials]}
     atomic_write_bytes(folder / "fit_report.json",

@@ -18,6 +18,7 @@ Two steps, repeated once the camera is known:
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -49,8 +50,8 @@ CANDIDATES: dict[str, list[dict]] = {
     # the camera's exposure bias and white balance: unset (the look's own draws) or fixed
     "exposure": [{"exposure_bias": v} for v in (None, "-1.5:-0.9", "-0.9:-0.3", "-0.3:0.3",
                                                  "0.3:0.9", "0.9:1.5")],
-    "wb_red": [{"wb_red": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
-    "wb_blue": [{"wb_blue": v} for v in (None, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
+    "wb_red": [{"wb_red": v} for v in (None, 0.4, 0.5, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
+    "wb_blue": [{"wb_blue": v} for v in (None, 0.4, 0.5, 0.6, 0.75, 0.9, 1.1, 1.3, 1.6)],
     # the tone curve's contrast: unset or fixed (saturation is not searched: on water-only
     # frames the water type and white balance reach it)
     "contrast": [{"contrast": v} for v in (None, 0.7, 0.85, 1.0, 1.15, 1.35, 1.6, 1.9)],
@@ -92,6 +93,9 @@ class SearchResult:
     water_votes: dict = field(default_factory=dict)
     turbidities: list = field(default_factory=list)
     seconds: float = 0.0
+    #: the second search from the highlights' cast, when there was one: its white balance
+    #: start (``wb_red``, ``wb_blue``), both searches' losses and which was kept
+    cast: dict | None = None
 
 
 def with_settings(config: GeneratorConfig, **settings) -> GeneratorConfig:
@@ -219,12 +223,42 @@ def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path | No
     """Fit ``base`` (size and geometry already the footage's) to ``footage``: water by
     colour inversion, then up to ``passes`` rounds of coordinate search over ``groups``
     (default: all of :data:`CANDIDATES`), each followed by the water again under the fitted
-    camera and light; a round that changes nothing ends the search."""
+    camera and light; a round that changes nothing ends the search. When the footage's
+    highlights carry a colour cast (:func:`cast_start`), the search runs again from that
+    cast and the closer of the two fits is kept: from the defaults' camera, a green frame
+    is explained by green water first, and no single step of the search reaches the cast
+    from there."""
     t0 = time.perf_counter()
     say = log or (lambda s: None)
     r = Renderer(base, sprites_dir, n_render, mask_sky=footage.sky_masked)
     default_summary, _, default_frames = r.measure(base)
-    config, trials = base, []  # type: GeneratorConfig, list[Trial]
+    trials: list[Trial] = []
+    found = _descend(r, base, footage, groups, passes, trials, say)
+    start = cast_start(base, footage.summary, default_summary, groups)
+    cast = None
+    if start is not None:
+        gains = {k: float(getattr(start, k).lo) for k in ("wb_red", "wb_blue")}
+        say(f"the highlights carry a cast: searching again from white balance red "
+            f"{gains['wb_red']:g}, blue {gains['wb_blue']:g}")
+        again = _descend(r, start, footage, groups, passes, trials, say)
+        losses = [loss(r.measure(f[0])[0], footage.summary) for f in (found, again)]
+        cast = {**gains, "loss_defaults": losses[0], "loss_cast": losses[1],
+                "kept": "cast" if losses[1] < losses[0] else "defaults"}
+        say(f"from the defaults' camera: loss {losses[0]:.3g}; from the cast: "
+            f"{losses[1]:.3g}: the fit from the {cast['kept']} is kept")
+        if cast["kept"] == "cast":
+            found = again
+    config, votes, turb = found
+    fitted, per, frames = r.measure(config)
+    return SearchResult(config, fitted, per, frames, default_summary, default_frames, trials,
+                        votes, turb, time.perf_counter() - t0, cast)
+
+
+def _descend(r: Renderer, config: GeneratorConfig, footage: Footage,
+             groups: tuple[str, ...] | None, passes: int, trials: list[Trial],
+             say: Callable[[str], None]) -> tuple[GeneratorConfig, dict, list]:
+    """The search of :func:`search` from ``config``: (fitted config, the last water
+    inversion's votes and turbidities)."""
     config, votes, turb = _fit_water(r, config, footage, say)
     for _ in range(passes):
         start = config
@@ -233,9 +267,39 @@ def search(footage: Footage, base: GeneratorConfig, sprites_dir: str | Path | No
         config, votes, turb = _fit_water(r, config, footage, say)
         if config == start:  # a pass that changed nothing: the next would not either
             break
-    fitted, per, frames = r.measure(config)
-    return SearchResult(config, fitted, per, frames, default_summary, default_frames, trials,
-                        votes, turb, time.perf_counter() - t0)
+    return config, votes, turb
+
+
+#: an encoded (sRGB) ratio of channels becomes a linear gain to about this power
+ENCODED_GAMMA = 2.2
+
+
+def cast_start(base: GeneratorConfig, footage: dict, defaults: dict,
+               groups: tuple[str, ...] | None) -> GeneratorConfig | None:
+    """``base`` with the white balance that tints the defaults' highlights as the
+    footage's are tinted, or None when that is no cast (both gains snap to 0.9-1.1), the
+    highlights are unknown or white balance is not searched. ``footage`` and ``defaults``
+    are :func:`~.stats.summary` dicts: the highlights' (R, B) shares give R/G and B/G
+    ratios; the footage's over the defaults', to the power :data:`ENCODED_GAMMA` (the
+    highlights are bright: their encoded levels follow a linear gain about so), snapped to
+    the nearest candidate gain."""
+    if groups is not None and not {"wb_red", "wb_blue"} <= set(groups):
+        return None
+    gains = []
+    for key in ("highlight_r", "highlight_b"):
+        f, d = footage[key][1], defaults[key][1]
+        fg = 1.0 - footage["highlight_r"][1] - footage["highlight_b"][1]
+        dg = 1.0 - defaults["highlight_r"][1] - defaults["highlight_b"][1]
+        if not all(np.isfinite([f, d, fg, dg])) or min(f, d, fg, dg) <= 0:
+            return None
+        gains.append(((f / fg) / (d / dg)) ** ENCODED_GAMMA)
+    snapped = []
+    for key, gain in zip(("wb_red", "wb_blue"), gains, strict=True):
+        values = [c[key] for c in CANDIDATES[key] if c[key] is not None]
+        snapped.append(min(values, key=lambda v: abs(math.log(v / gain))))
+    if all(0.9 <= g <= 1.1 for g in snapped):
+        return None
+    return with_settings(base, wb_red=snapped[0], wb_blue=snapped[1])
 
 
 def _fit_water(r: Renderer, config: GeneratorConfig, footage: Footage,
