@@ -14,6 +14,10 @@ Two steps, repeated once the camera is known:
    candidate config renders the same ``n_render`` water-only frames (seeded, no objects)
    and the candidate whose statistics' :func:`~.stats.loss` to the footage's is lowest is
    kept.
+
+Both run from the defaults' camera, then, when the footage's highlights carry a colour cast
+(:func:`cast_start`), again from the white balance that cast implies; the fit with the
+lower loss is kept.
 """
 
 from __future__ import annotations
