@@ -289,14 +289,14 @@ def cast_start(base: GeneratorConfig, footage: dict, defaults: dict,
     the nearest candidate gain."""
     if groups is not None and not {"wb_red", "wb_blue"} <= set(groups):
         return None
-    gains = []
-    for key in ("highlight_r", "highlight_b"):
-        f, d = footage[key][1], defaults[key][1]
-        fg = 1.0 - footage["highlight_r"][1] - footage["highlight_b"][1]
-        dg = 1.0 - defaults["highlight_r"][1] - defaults["highlight_b"][1]
-        if not all(np.isfinite([f, d, fg, dg])) or min(f, d, fg, dg) <= 0:
+    ratios = []  # (R/G, B/G) of the footage's highlights, then of the defaults'
+    for s in (footage, defaults):
+        r, b = s["highlight_r"][1], s["highlight_b"][1]
+        g = 1.0 - r - b
+        if not all(np.isfinite([r, b, g])) or min(r, b, g) <= 0:
             return None
-        gains.append(((f / fg) / (d / dg)) ** ENCODED_GAMMA)
+        ratios.append((r / g, b / g))
+    gains = [(f / d) ** ENCODED_GAMMA for f, d in zip(*ratios, strict=True)]
     snapped = []
     for key, gain in zip(("wb_red", "wb_blue"), gains, strict=True):
         values = [c[key] for c in CANDIDATES[key] if c[key] is not None]
