@@ -1,5 +1,6 @@
 """Reading the user's footage for ``sdcomp fit``: frames at one working size, their water
-statistics (:mod:`.stats`, objects of the optional labels kept out) and their geometry
+statistics (:mod:`.stats`, objects of the optional labels and painted-out regions,
+:mod:`sdcomp.report.realism.painted`, kept out) and their geometry
 (``--altitude`` / ``--pitch``, else the labels' SeaDronesSee ``meta``, else the flight logs
 of :mod:`.flightlog`: a photo's DJI XMP, a video's SRT subtitle file)."""
 
@@ -13,6 +14,7 @@ import cv2
 import numpy as np
 
 from ..errors import UserError
+from ..report.realism.painted import shrink_valid
 from ..report.realism.patches import PATCH, empty_water
 from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
 from ..report.realism.sources import Frame, load_frame, load_real, sky_mask
@@ -80,7 +82,7 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     w, h = working_size(s0.width, s0.height, size)
     rows: list[dict[str, float] | None] = []
     crops: list[np.ndarray] = []
-    alts, pitches, unread, logs, skies = [], [], 0, 0, 0
+    alts, pitches, unread, logs, skies, painted = [], [], 0, 0, 0, 0
     fovs: list[float] = []
     for frame in fs.frames:
         loaded = load_frame(frame)
@@ -97,7 +99,11 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
                                pitch if pitch is not None else pitches[-1])
         skies += valid is not None and not valid.all()
         rgb, boxes = _resize(loaded.rgb, frame.boxes, w, h)
-        rows.append(measure_image(rgb, empty_water((h, w), None, boxes, valid)))
+        scene = None if loaded.painted is None else shrink_valid(~loaded.painted, w, h)
+        painted += scene is not None
+        if scene is not None:
+            valid = scene if valid is None else valid & scene
+        rows.append(measure_image(rgb, empty_water((h, w), None, boxes, valid), scene))
         if len(crops) < 4:
             crops.append(rgb)
     per = stack(rows)
@@ -115,6 +121,7 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
         (len(fovs), f"field of view of {len(fovs)} photos from their EXIF (35 mm equivalent "
                     f"focal length): {out.fov} degrees diagonally"),
         (skies, f"sky kept out of {skies} frames (their pitch and field of view)"),
+        (painted, f"painted-out (black) regions kept out of {painted} frames"),
         (unread, f"{unread} frames could not be read")) if n]
     return out
 

@@ -51,10 +51,12 @@ HIGHLIGHT_SHARE = 0.01  #: ``highlight_*`` is the colour of this brightest share
 _LAPLACE = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 
-def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None) -> dict[str, float] | None:
+def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None,
+                scene: np.ndarray | None = None) -> dict[str, float] | None:
     """The statistics (:data:`STATS` and :data:`EXTRA`) of one (H, W, 3) uint8 RGB image
-    over its grid patches where ``keep`` ((n,) bool, None = all) is True; None when no
-    patch is kept."""
+    over its grid patches where ``keep`` ((n,) bool, None = all) is True; ``blockiness``
+    and ``vignetting``, measured over the whole image, over its pixels where ``scene``
+    ((H, W) bool, None = all) is True (False: painted out). None when no patch is kept."""
     maps = image_maps(rgb)
     ps = maps_patch_stats(maps, keep)
     if ps["luminance"].size == 0:
@@ -79,8 +81,8 @@ def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None) -> dict[str, fl
         "highlight_b": high[1],
         "noise": float(np.percentile(noise, 25)),
         "sharpness": float(np.median(sharp)),
-        "blockiness": blockiness(maps.y),
-        "vignetting": vignetting(maps.y),
+        "blockiness": blockiness(maps.y, scene),
+        "vignetting": vignetting(maps.y, scene),
         "noise_slope": _noise_slope(ps["luminance"], noise),
     }
 
@@ -115,11 +117,12 @@ def _noise_slope(lum: np.ndarray, noise: np.ndarray) -> float:
     return float(np.polyfit(lum, noise ** 2, 1)[0])
 
 
-def blockiness(y: np.ndarray, block: int = 8) -> float:
+def blockiness(y: np.ndarray, scene: np.ndarray | None = None, block: int = 8) -> float:
     """(Mean |step| of the (H, W) float32 luma across ``block``-pixel edges, columns and
     rows, minus the mean |step| inside blocks) / (the inside mean + :data:`BLOCK_FLOOR`
-    levels): 0 without blocking (the floor keeps smooth water from dividing by ~0); NaN for
-    images smaller than 2 blocks."""
+    levels): 0 without blocking (the floor keeps smooth water from dividing by ~0); only
+    the steps between two pixels of ``scene`` ((H, W) bool; None: all); NaN for images
+    smaller than 2 blocks or without steps of both kinds."""
     h, w = y.shape
     if h < 2 * block or w < 2 * block:
         return float("nan")
@@ -127,22 +130,36 @@ def blockiness(y: np.ndarray, block: int = 8) -> float:
     dy = np.abs(np.diff(y, axis=0))
     on_x = (np.arange(w - 1) % block) == block - 1
     on_y = (np.arange(h - 1) % block) == block - 1
-    edge = dx[:, on_x].sum() + dy[on_y].sum()
-    n_edge = dx[:, on_x].size + dy[on_y].size
-    inner = dx[:, ~on_x].sum() + dy[~on_y].sum()
-    n_inner = dx[:, ~on_x].size + dy[~on_y].size
+    if scene is None:
+        edge = dx[:, on_x].sum() + dy[on_y].sum()
+        n_edge = dx[:, on_x].size + dy[on_y].size
+        inner = dx[:, ~on_x].sum() + dy[~on_y].sum()
+        n_inner = dx[:, ~on_x].size + dy[~on_y].size
+    else:
+        sx = scene[:, 1:] & scene[:, :-1]  # steps between two pixels of the scene
+        sy = scene[1:] & scene[:-1]
+        edge = dx[:, on_x][sx[:, on_x]].sum() + dy[on_y][sy[on_y]].sum()
+        n_edge = np.count_nonzero(sx[:, on_x]) + np.count_nonzero(sy[on_y])
+        inner = dx[:, ~on_x][sx[:, ~on_x]].sum() + dy[~on_y][sy[~on_y]].sum()
+        n_inner = np.count_nonzero(sx[:, ~on_x]) + np.count_nonzero(sy[~on_y])
+        if n_edge == 0 or n_inner == 0:
+            return float("nan")
     inner_mean = inner / n_inner
     return float((edge / n_edge - inner_mean) / (inner_mean + BLOCK_FLOOR))
 
 
-def vignetting(y: np.ndarray) -> float:
+def vignetting(y: np.ndarray, scene: np.ndarray | None = None) -> float:
     """1 - (mean luma beyond 0.8 of the half-diagonal) / (mean luma within 0.4 of it) of
-    the (H, W) float32 luma ``y`` (0: flat; positive: darker corners)."""
+    the (H, W) float32 luma ``y`` over its pixels of ``scene`` ((H, W) bool; None: all)
+    (0: flat; positive: darker corners; NaN where either ring has none)."""
     h, w = y.shape
     yy, xx = np.ogrid[:h, :w]
     r = np.hypot((xx - (w - 1) / 2) / (w / 2), (yy - (h - 1) / 2) / (h / 2)) / math.sqrt(2)
-    centre = y[r < 0.4].mean() if np.any(r < 0.4) else np.nan
-    corner = y[r > 0.8].mean() if np.any(r > 0.8) else np.nan
+    inside, outside = r < 0.4, r > 0.8
+    if scene is not None:
+        inside, outside = inside & scene, outside & scene
+    centre = y[inside].mean() if np.any(inside) else np.nan
+    corner = y[outside].mean() if np.any(outside) else np.nan
     return float(1.0 - corner / max(centre, 1e-6))
 
 

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 
 from . import classifier as clf
+from .painted import shrink_valid
 from .patches import (
     METRICS,
     concat_stats,
@@ -66,8 +67,8 @@ def _rescale(rgb, instances, valid, boxes, factor: float):
     rgb = cv2.resize(rgb, size, interpolation=interp)
     if instances is not None:
         instances = cv2.resize(instances, size, interpolation=cv2.INTER_NEAREST)
-    if valid is not None:
-        valid = cv2.resize(valid.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+    if valid is not None:  # invalid wherever any pixel it covers is (painted edges)
+        valid = shrink_valid(valid, *size)
     if boxes is not None:
         boxes = [[v * factor for v in b[:4]] for b in boxes]
     return rgb, instances, valid, boxes

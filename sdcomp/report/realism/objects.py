@@ -85,7 +85,8 @@ def labelled_mask(shape: tuple[int, int], boxes: np.ndarray) -> np.ndarray:
 
 def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]],
                    gsd: np.ndarray | float | None = None, min_size: float = MIN_SIZE,
-                   exclude_others: bool = True) -> np.ndarray:
+                   exclude_others: bool = True, valid: np.ndarray | None = None
+                   ) -> np.ndarray:
     """The statistics of :data:`STATS` of each box of one image.
 
     Args:
@@ -97,6 +98,8 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         min_size: boxes with sqrt(w h) below this many pixels are not measured.
         exclude_others: False: the other boxes in a box's window count as its water (only
             the box itself is left out); True (the definition): they do not.
+        valid: (H, W) bool, False on pixels that are not the scene (a real frame's
+            painted-out regions): never surrounding water. None: all are.
     Returns:
         (k, len(STATS)) float64, a row per box in the order of ``boxes``; a box not measured
         (too small, not finite or outside the image) has a row of NaN.
@@ -111,6 +114,7 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
     y = luminance(rgb)
     s = saturation(rgb)
     labelled = labelled_mask((h, w), b)
+    invalid = None if valid is None else ~np.asarray(valid, bool)
     for i, (bw, bh) in enumerate(b[:, 2:]):
         size = math.sqrt(bw * bh) if bw > 0 and bh > 0 else float("nan")
         inner = box_slices(b[i], (h, w)) if math.isfinite(size) and size >= min_size else None
@@ -125,11 +129,14 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         window = box_slices(b[i], (h, w), grow=max(bw, bh))
         assert window is not None  # it holds the box
         if exclude_others:
-            water = y[window][~labelled[window]].astype(np.float64)
+            out_of_water = labelled[window]
         else:
             own = np.zeros(labelled.shape, bool)
             own[inner] = True
-            water = y[window][~own[window]].astype(np.float64)
+            out_of_water = own[window]
+        if invalid is not None:
+            out_of_water = out_of_water | invalid[window]
+        water = y[window][~out_of_water].astype(np.float64)
         if water.size < MIN_SURROUND:
             continue
         mean, std = float(water.mean()), float(water.std())

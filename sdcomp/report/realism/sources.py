@@ -7,7 +7,9 @@ pitch). Sky and land are kept out of "empty water" by :class:`SeaOracle`.
 Real frames are the user's footage (:mod:`sdcomp.render.footage`): a folder (or file) of
 photos and videos, every video frame a candidate, optionally with labels (a COCO json file or
 a YOLO labels folder) whose boxes are kept out of empty water. A frame a COCO file does not
-list is skipped (its objects are unknown); a frame without a YOLO label file has none.
+list is skipped (its objects are unknown); a frame without a YOLO label file has none. Their
+painted-out regions (:mod:`.painted`: SeaDronesSee's black paint over what it does not
+label) are not water either.
 """
 
 from __future__ import annotations
@@ -25,9 +27,11 @@ from ...io.layout import load_dataset
 from ...render.footage import Source, VideoReader, list_sources, read_source
 from ...render.footage_labels import Labels, read_labels
 from ...scene.camera import CameraModel, camera_basis, horizon_row
+from .painted import painted_mask
 from .sea import ALTITUDE_KEY, GSD_KEY, PITCH_KEY, SeaOracle, num
 
 REAL_SKY_MARGIN = 0.05  #: fraction of the height kept clear below a real frame's horizon
+PAINT_HOW = "painted-out (black) regions excluded"  #: a real frame's valid mask, painted
 
 
 @dataclass
@@ -77,12 +81,15 @@ class FrameSet:
 @dataclass
 class Loaded:
     """A frame read into memory: ``rgb`` (H, W, 3) uint8, ``instances`` (H, W) uint16 or None,
-    ``valid`` (H, W) bool or None (all valid), ``valid_how`` how that mask was made."""
+    ``valid`` (H, W) bool or None (all valid), ``valid_how`` how that mask was made,
+    ``painted`` (H, W) bool, True on a real frame's painted-out regions (already False in
+    ``valid``), or None where there are none."""
 
     rgb: np.ndarray
     instances: np.ndarray | None
     valid: np.ndarray | None
     valid_how: str
+    painted: np.ndarray | None = None
 
 
 _VIDEOS = VideoReader("--real")
@@ -118,7 +125,8 @@ def frame_rgb(frame: Frame) -> np.ndarray | None:
 
 
 def load_frame(frame: Frame) -> Loaded | None:
-    """Read a :class:`Frame`; None when its image cannot be read."""
+    """Read a :class:`Frame`; None when its image cannot be read. A real frame's
+    painted-out regions (:func:`~.painted.painted_mask`) are invalid pixels."""
     rgb = frame_rgb(frame)
     if rgb is None:
         return None
@@ -128,7 +136,11 @@ def load_frame(frame: Frame) -> Loaded | None:
     valid, how = (None, "unknown: all pixels accepted")
     if frame.valid is not None:
         valid, how = frame.valid(rgb.shape[:2])
-    return Loaded(rgb, inst, valid, how)
+    painted = painted_mask(rgb) if frame.source is not None else None
+    if painted is not None:
+        valid = ~painted if valid is None else valid & ~painted
+        how = (PAINT_HOW if how.startswith("unknown") else f"{how}; {PAINT_HOW}")
+    return Loaded(rgb, inst, valid, how, painted)
 
 
 def subsample(frames: list, max_images: int | None, seed: int) -> list:
