@@ -28,7 +28,7 @@ from .geometry import Grid
 from .optics import N_WATER, fresnel
 from .sky import Sky, make_sky
 from .textures import N_LEVELS, WaterTextures
-from .waves import WaveState, long_waves, norm_quantile, slope_pdf, swell_slopes
+from .waves import WaveState, long_waves, masking, norm_quantile, slope_pdf, swell_slopes
 
 
 @dataclass(frozen=True, eq=False)
@@ -316,9 +316,12 @@ def _patchy_rrs(params: WaterParams, fields: dict, n_g: int):
 
 
 def _glint_terms(d, sky: Sky, slope, e_u, e_c, unres, res_sd, direct) -> dict:
-    """Cox-Munk glint at the grid points: ``L = E_sun R(omega) p(z) / (4 cos theta_v
-    cos^4 beta)`` with ``p`` the Gaussian slope PDF around the long-wave slope: ``mean``
-    with the drawn slopes counted as unresolved, and the parts the sparkles need."""
+    """Cox-Munk glint at the grid points: ``L = E_sun R(omega) p(z) G / (4 cos theta_v
+    cos^4 beta)`` with ``p`` the slope PDF around the long-wave slope and ``G = 1 / (1 +
+    Lambda_v + Lambda_sun)`` the share of mirroring facets neither hidden from the camera
+    nor shadowed from the sun by other waves (:func:`~.waves.masking`: without it the
+    glint grows as 1 / cos theta_v towards the horizon): ``mean`` with the drawn slopes
+    counted as unresolved, and the parts the sparkles need."""
     v = -d
     s = sky.sun[None, :]
     hvec = v + s
@@ -330,9 +333,10 @@ def _glint_terms(d, sky: Sky, slope, e_u, e_c, unres, res_sd, direct) -> dict:
     dc = dev @ e_c
     cos_w = np.clip((hvec * s).sum(1), 0.0, 1.0)
     cos_v = np.maximum(v[:, 2], 1e-3)
-    geo = sky.e_sun * direct * fresnel(cos_w) / (4.0 * cos_v * cos_b ** 4)
     su2 = unres[:, 0] + res_sd[:, 0] ** 2
     sc2 = unres[:, 1] + res_sd[:, 1] ** 2
+    hidden = masking(v, e_u, e_c, su2, sc2) + masking(s, e_u, e_c, su2, sc2)
+    geo = sky.e_sun * direct * fresnel(cos_w) / (4.0 * cos_v * cos_b ** 4 * (1.0 + hidden))
     mean = geo * slope_pdf(du, dc, su2, sc2)
     return {"mean": mean, "geo": geo, "du": du, "dc": dc}
 

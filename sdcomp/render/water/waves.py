@@ -156,6 +156,27 @@ def slope_pdf(du, dc, var_u, var_c, nu: float = SLOPE_NU):
     return (1.0 + q) ** (-(nu + 2.0) / 2.0) / (2 * math.pi * np.sqrt(su2 * sc2))
 
 
+def masking(w, e_u, e_c, var_u, var_c):
+    """Smith's masking of a rough surface seen from (or lit from) unit directions ``w``
+    (..., 3), z up: ``Lambda`` (...) of a Gaussian slope distribution with variances
+    ``var_u`` upwind and ``var_c`` crosswind (axes ``e_u``, ``e_c``: horizontal unit
+    (2,) vectors), ``(exp(-a^2) / (sqrt(pi) a) - erfc(a)) / 2`` with ``a = cot(theta) /
+    sqrt(2 var)``, ``var`` the slope variance along ``w``'s azimuth. The share of facets
+    seen (or lit) is ``1 / (1 + Lambda)``: 1 from above, falling to nothing towards the
+    horizon, where the waves hide each other's faces (the Student-t tails of
+    :func:`slope_pdf` are left out of it)."""
+    w = np.asarray(w, np.float64)
+    hx = w[..., :2] @ np.asarray(e_u, np.float64)
+    hy = w[..., :2] @ np.asarray(e_c, np.float64)
+    horiz2 = np.maximum(hx * hx + hy * hy, 1e-12)
+    var = (var_u * hx * hx + var_c * hy * hy) / horiz2
+    a = np.maximum(w[..., 2], 1e-6) / np.sqrt(2.0 * horiz2 * np.maximum(var, 1e-12))
+    t = 1.0 / (1.0 + 0.3275911 * a)  # erfc(a), a >= 0 (Abramowitz & Stegun 7.1.26)
+    erfc = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (
+        -1.453152027 + t * 1.061405429)))) * np.exp(-a * a)
+    return np.maximum((np.exp(-a * a) / (math.sqrt(math.pi) * a) - erfc) / 2.0, 0.0)
+
+
 CAPILLARITY = 7.28e-5  # m^3/s^2: surface tension over density of sea water
 
 
