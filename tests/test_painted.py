@@ -138,3 +138,30 @@ def test_paint_is_not_a_boxes_surrounding_water():
     valid = ~painted_mask(painted)
     assert abs(box_statistics(painted, box, min_size=5, valid=valid)[0, 0] - plain) < 0.1
     assert abs(box_statistics(painted, box, min_size=5)[0, 0] - plain) > 1.0
+
+
+def test_real_objects_measure_against_their_water_only(tmp_path):
+    """``sdcomp realism --objects`` on real frames: a labelled box beside a painted
+    rectangle measures as in the same frame unpainted."""
+    import json
+
+    from sdcomp.report.realism.object_sets import measure_objects
+
+    rng = np.random.default_rng(1)
+    y = np.clip(rng.normal(110, 6, (160, 160)), 0, 255)
+    img = np.repeat(y[..., None], 3, axis=2).astype(np.uint8)
+    img[70:90, 70:90] = 60
+    painted = img.copy()
+    painted[40:120, 95:115] = 0
+    coco = {"images": [], "annotations": [], "categories": [{"id": 1, "name": "swimmer"}]}
+    for k, rgb in enumerate((img, painted)):
+        cv2.imwrite(str(tmp_path / f"f{k}.png"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+        coco["images"].append({"id": k + 1, "file_name": f"f{k}.png", "width": 160,
+                               "height": 160})
+        coco["annotations"].append({"id": k + 1, "image_id": k + 1, "category_id": 1,
+                                    "bbox": [70, 70, 20, 20], "area": 400, "iscrowd": 0})
+    (tmp_path / "labels.json").write_text(json.dumps(coco))
+    table = measure_objects(load_real(tmp_path, tmp_path / "labels.json"))
+    assert table.values.shape[0] == 2
+    assert abs(table.values[0, 0] - table.values[1, 0]) < 0.1, table.values[:, :3]
+    assert abs(table.values[0, 1] - table.values[1, 1]) < 0.02  # the dark share
