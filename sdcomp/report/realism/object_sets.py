@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .objects import MIN_SIZE, STATS, box_statistics, record_gsd, summarise
-from .painted import painted_mask
-from .sources import Frame, FrameSet, frame_rgb, load_generated
+from .sources import Frame, FrameSet, frame_painted, frame_rgb, load_generated
 
 
 @dataclass
@@ -75,7 +74,7 @@ def frame_box_gsd(frame: Frame, boxes: np.ndarray) -> tuple[np.ndarray, str]:
 def measure_objects(frames: FrameSet, min_size: float = MIN_SIZE, log=None,
                     exclude_others: bool = True) -> ObjectTable:
     """Measure every labelled box of a set (:func:`.objects.box_statistics`, with
-    ``exclude_others``; a real frame's painted-out regions, :func:`.painted.painted_mask`,
+    ``exclude_others``; a real frame's painted-out regions, :func:`.sources.frame_painted`,
     are no box's water); frames without boxes contribute nothing but are counted as read."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
@@ -97,7 +96,7 @@ def measure_objects(frames: FrameSet, min_size: float = MIN_SIZE, log=None,
         names += ["?"] * (len(boxes) - len(names))
         g, why = frame_box_gsd(frame, boxes)
         how[why] = how.get(why, 0) + 1
-        painted = painted_mask(rgb) if frames.kind == "real" else None
+        painted = frame_painted(frame, rgb)
         v = box_statistics(rgb, boxes, g, min_size, exclude_others,
                            None if painted is None else ~painted)
         keep = np.flatnonzero(~np.isnan(v).all(axis=1))

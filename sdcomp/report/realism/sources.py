@@ -136,11 +136,17 @@ def load_frame(frame: Frame) -> Loaded | None:
     valid, how = (None, "unknown: all pixels accepted")
     if frame.valid is not None:
         valid, how = frame.valid(rgb.shape[:2])
-    painted = painted_mask(rgb) if frame.source is not None else None
+    painted = frame_painted(frame, rgb)
     if painted is not None:
         valid = ~painted if valid is None else valid & ~painted
-        how = (PAINT_HOW if how.startswith("unknown") else f"{how}; {PAINT_HOW}")
+        how = PAINT_HOW if frame.valid is None else f"{how}; {PAINT_HOW}"
     return Loaded(rgb, inst, valid, how, painted)
+
+
+def frame_painted(frame: Frame, rgb: np.ndarray) -> np.ndarray | None:
+    """The painted-out regions (:func:`~.painted.painted_mask`) of a real frame's pixels
+    ``rgb``; None for a generated frame (sdcomp paints nothing) or where there are none."""
+    return painted_mask(rgb) if frame.source is not None else None
 
 
 def subsample(frames: list, max_images: int | None, seed: int) -> list:
