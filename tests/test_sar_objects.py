@@ -329,6 +329,47 @@ def test_paired_pitch_draws_the_pitch_at_the_altitudes_place():
                                    "give both as lists, or add --no-pair-pitch")
 
 
+def test_paired_pitch_draws_the_heading_and_sun_of_the_same_frame():
+    """Heading and sun given as lists of the flight log's length are drawn at the place the
+    altitude was (a frame's view of the sun: how far it looks from the sun's glitter); the
+    draws stay where they were, and a list of another length is refused."""
+    log = [(10, 20, 0, 30), (30, 45, 90, 45), (60, 80, 180, 60), (30, 90, 270, 75)]
+    paired = GeneratorConfig(altitude=[f[0] for f in log], pitch=[f[1] for f in log],
+                             heading=[f[2] for f in log], sun_elevation=[f[3] for f in log],
+                             sun_azimuth=0, pair_pitch=True, seed=5)
+    apart = replace(paired, heading="0-360", sun_elevation="25-80")
+    seen = set()
+    for i in range(60):
+        a, b = sample_scene(paired, i), sample_scene(apart, i)
+        seen.add((a.camera.altitude, a.camera.pitch, a.camera.heading, a.water.sun_elevation))
+        assert (a.camera.altitude, a.camera.pitch) == (b.camera.altitude, b.camera.pitch)
+        assert a.water.wind == b.water.wind and a.water.sky == b.water.sky
+    assert seen == set(log)
+    with pytest.raises(SettingError) as err:
+        replace(paired, sun_elevation=[30, 40])
+    assert err.value.as_flag() == ("--sun-elevation is a list of 2 but --pair-pitch draws the "
+                                   "k-th of lists of --altitude's length (4): give "
+                                   "--sun-elevation 4 values, or a value or range lo-hi")
+
+
+def test_seadronessee_preset_views_the_sun_as_its_frames_did():
+    """The preset's heading relative to the sun and the sun's elevation are those of the
+    frames its altitudes and pitches come from (tools/sds_sun_geometry.py): August middays
+    (43-51 degrees) and few views towards the sun."""
+    c = GeneratorConfig.from_mapping(preset("seadronessee"))
+    assert len(c.heading.values) == len(c.sun_elevation.values) == 100
+    assert 43 <= min(c.sun_elevation.values) and max(c.sun_elevation.values) <= 51
+    towards = [abs((h + 180) % 360 - 180) < 30 for h in c.heading.values]
+    assert sum(towards) < 17  # a uniform heading: 17 in 100
+    scenes = [sample_scene(c, i) for i in range(40)]
+    for s in scenes:
+        k = [j for j, (a, p) in enumerate(zip(c.altitude.values, c.pitch.values, strict=True))
+             if (a, p) == (s.camera.altitude, s.camera.pitch)]
+        assert any((c.heading.values[j], c.sun_elevation.values[j])
+                   == (s.camera.heading, s.water.sun_elevation) for j in k)
+        assert s.water.sun_azimuth == 0.0
+
+
 def test_no_variant_taller_than_half_the_altitude():
     """A sailboat (mast 12-16 m above the water) is not drawn under a drone at 10 m: the
     renderer would scale it for its middle, far too large; at 50 m it is."""

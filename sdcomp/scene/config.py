@@ -121,7 +121,9 @@ class GeneratorConfig:
                              720.0, "degrees")
     pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch with the k-th --altitude "
                                "(two lists of one length: a joint distribution, e.g. from "
-                               "flight logs)")
+                               "flight logs); --heading, --sun-elevation and --sun-azimuth "
+                               "given as lists of that length are drawn at the same k (the "
+                               "view relative to the sun)")
     # water
     water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "waters, one per "
                                      "image at random: ocean, coastal, turbid, algae, lake, "
@@ -262,6 +264,14 @@ class GeneratorConfig:
                                              f"of one length (--altitude is {kind(n_alt)}, "
                                              f"--pitch {kind(n_pitch)}): give both as lists, "
                                              f"or add --no-pair-pitch")
+        for name in ("heading", "sun_elevation", "sun_azimuth"):
+            n = len(getattr(self, name).choices)
+            if self.pair_pitch and n and n != n_alt:
+                flag = "--" + name.replace("_", "-")
+                raise SettingError(name, f"{{name}} is a list of {n} but --pair-pitch draws "
+                                         f"the k-th of lists of --altitude's length "
+                                         f"({n_alt}): give {flag} {n_alt} values, or a value "
+                                         f"or range lo-hi")
 
     def _check_water(self) -> None:
         """Waters, skies, the camera look and the user's footage (and its labels)."""

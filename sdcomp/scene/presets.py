@@ -44,6 +44,24 @@ SDS_PITCH = (75, 45, 45, 52, 66, 59, 15, 14, 11, 18, 11, 16, 34, 34, 2, 2, 2, 2,
              55, 55, 25, 25, 25, 25, 25, 46, 36, 35, 35, 36, 36, 36, 35, 35, 36, 35, 39, 38, 38,
              58, 34, 0, 78, 90, 36, 36, 36, 36, 36, 36, 36, 36, 36, 29, 29, 40, 40, 44, 46, 40,
              46, 90, 8, 8, 8, 8, 40, 36, 71, 71, 71, 71, 71, 71, 77)
+# The same 100 frames' view of the sun (tools/sds_sun_geometry.py: the sun's position from
+# each frame's UTC time, latitude and longitude): the camera's heading relative to the sun
+# (sdcomp's azimuths, the sun at 0; drawn paired, so a frame's pitch keeps its heading: 7 %
+# of the 1030 frames look within 30 degrees of the sun, where a uniform heading has 17 %, and
+# so into its glitter) and the sun's elevation (midday in August at 47-54 degrees north:
+# 43-51 degrees, where sdcomp's default draws 25-80).
+SDS_HEADING = (313, 60, 299, 302, 311, 310, 163, 159, 124, 206, 118, 219, 341, 342, 298, 298, 298,
+               298, 341, 87, 87, 87, 341, 341, 341, 167, 167, 346, 304, 151, 358, 304, 304, 325,
+               324, 327, 195, 231, 346, 206, 231, 185, 118, 166, 97, 247, 247, 248, 247, 231, 226,
+               102, 163, 165, 193, 134, 156, 178, 178, 186, 202, 124, 124, 124, 166, 122, 235, 241,
+               216, 98, 98, 98, 98, 98, 98, 98, 98, 98, 268, 266, 33, 33, 38, 40, 33, 44, 217, 301,
+               301, 291, 291, 33, 33, 47, 47, 209, 209, 176, 209, 268)
+SDS_SUN_ELEVATION = (48, 51, 48, 48, 48, 48, 51, 51, 51, 51, 51, 51, 49, 49, 46, 46, 46, 46, 49,
+                     49, 49, 49, 49, 49, 49, 48, 48, 49, 45, 48, 45, 45, 45, 45, 45, 45, 44, 44,
+                     49, 44, 44, 44, 48, 48, 48, 45, 45, 45, 45, 45, 45, 48, 49, 49, 48, 48, 48,
+                     49, 49, 48, 49, 48, 48, 48, 48, 49, 49, 49, 49, 43, 43, 43, 43, 43, 43, 43,
+                     43, 43, 51, 51, 43, 43, 43, 43, 43, 43, 49, 44, 44, 44, 44, 50, 50, 49, 49,
+                     49, 49, 49, 49, 50)
 SDS_COUNT = (1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 5, 5, 6, 7, 7, 7, 7, 7, 7, 7, 8, 9,
              9, 9, 9, 10, 10, 11, 11, 12, 13, 13, 13, 14)
 # the DJI Mavic 2 Pro's 4K video (most of SeaDronesSee's metadata frames): 28 mm equivalent
@@ -131,6 +149,7 @@ SEADRONESSEE: dict[str, Any] = {
     "count": list(SDS_COUNT), "count_view": SDS_VIEW,
     "altitude": list(SDS_ALTITUDE),
     "pitch": [max(p, PITCH_RANGE[0]) for p in SDS_PITCH], "pair_pitch": True,
+    "heading": list(SDS_HEADING), "sun_elevation": list(SDS_SUN_ELEVATION), "sun_azimuth": 0,
     "camera": "custom", "fov": SDS_FOV, "sensor_px": [3840, 2160],
     "width": 3840, "height": 2160,
     "water": ["coastal"], "turbidity": "0.5-1.0", "shallow": 0.1,

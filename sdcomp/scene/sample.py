@@ -27,6 +27,7 @@ from .objects import (
     under_way,
     visible_hull,
 )
+from .params import Param
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
@@ -57,8 +58,9 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     """Draw the scene of image ``index``; a pure function of (config, index)."""
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
-    pose = CameraPose(*_altitude_pitch(rng, config), config.heading.sample(rng) % 360.0)
-    water = sample_water(rng, config)
+    altitude, pitch, k = _altitude_pitch(rng, config)
+    pose = CameraPose(altitude, pitch, _paired(config.heading, rng, k) % 360.0)
+    water = sample_water(rng, config, k)
     shore = None
     if rng.random() < config.shore:
         footprint = pose.altitude * model.width / model.fx
@@ -119,13 +121,15 @@ def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
-def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterParams:
+def sample_water(rng: np.random.Generator, config: GeneratorConfig, k: int | None = None
+                 ) -> WaterParams:
     """The water and sky of one image (see :class:`WaterParams`): the water named by
     ``config.water`` (a preset draws one of its types), its constituents placed by the
     turbidity in the type's ranges (log scale, each +-0.15 at random), patchiness, a shallow
     bottom with probability ``config.shallow``, waves (slicks on calm water, swell on the
-    sea), the sky, the sun and the exposure target. Every value is drawn whether it is used
-    or not, so the draws after it do not shift."""
+    sea), the sky, the sun (at the flight log's place ``k`` where paired: :func:`_paired`)
+    and the exposure target. Every value is drawn whether it is used or not, so the draws
+    after it do not shift."""
     name, types, rgb = parse_water(config.water[int(rng.integers(len(config.water)))])
     wtype = types[int(rng.integers(len(types)))]
     turbidity = config.turbidity.sample(rng)
@@ -151,22 +155,33 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig) -> WaterPara
         sky=sky, cloud_cover=cover, cloud_height=rng.uniform(800.0, 2500.0),
         cloud_scale=_log_uniform(rng, 6.0, 25.0), cloud_bright=rng.uniform(0.7, 1.1),
         visibility=_log_uniform(rng, 6000.0, 40000.0),
-        sun_elevation=config.sun_elevation.sample(rng),
-        sun_azimuth=config.sun_azimuth.sample(rng) % 360.0,
+        sun_elevation=_paired(config.sun_elevation, rng, k),
+        sun_azimuth=_paired(config.sun_azimuth, rng, k) % 360.0,
         exposure_target=rng.uniform(0.16, 0.21), seed=int(rng.integers(2**31)))
 
 
-def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig) -> tuple[float, float]:
-    """The camera's altitude (m) and pitch (degrees): drawn apart, or, with ``pair_pitch``,
-    the pitch at the altitude's place in its list (one draw picks the place as
-    :meth:`Param.sample` would; the pitch's draw is made and unused, so that the draws after
-    it stay where they are)."""
+def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig
+                    ) -> tuple[float, float, int | None]:
+    """The camera's altitude (m) and pitch (degrees), and the place ``k`` in the flight log
+    they were drawn at: drawn apart (``k`` None), or, with ``pair_pitch``, the pitch at the
+    altitude's place in its list (one draw picks the place as :meth:`Param.sample` would;
+    the pitch's draw is made and unused, so that the draws after it stay where they are)."""
     if not config.pair_pitch:
-        return config.altitude.sample(rng), config.pitch.sample(rng)
+        return config.altitude.sample(rng), config.pitch.sample(rng), None
     n = len(config.altitude.choices)
     k = min(int(rng.random() * n), n - 1)
     rng.random()
-    return config.altitude.choices[k], config.pitch.choices[k]
+    return config.altitude.choices[k], config.pitch.choices[k], k
+
+
+def _paired(param: Param, rng: np.random.Generator, k: int | None) -> float:
+    """``param``'s value at the flight log's place ``k`` where it is a list of the log's
+    length (heading, sun elevation and azimuth with ``pair_pitch``: the view relative to
+    the sun), else a draw of it; one draw from ``rng`` either way."""
+    u = param.sample(rng)
+    if k is not None and param.choices:
+        return param.choices[k]
+    return u
 
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
