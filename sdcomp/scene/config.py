@@ -119,11 +119,9 @@ class GeneratorConfig:
                            "down, down to 2 (nearly level)", "DEG", *PITCH_RANGE, unit="degrees")
     heading: Param = setting("0-360", "param", "camera heading, degrees", "DEG", -360.0,
                              720.0, "degrees")
-    pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch with the k-th --altitude "
-                               "(two lists of one length: a joint distribution, e.g. from "
-                               "flight logs); --heading, --sun-elevation and --sun-azimuth "
-                               "given as lists of that length are drawn at the same k (the "
-                               "view relative to the sun)")
+    pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch (and --heading, --sun-"
+                               "elevation, --sun-azimuth lists of that length) with the k-th "
+                               "--altitude: a joint distribution, e.g. from flight logs")
     # water
     water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "waters, one per "
                                      "image at random: ocean, coastal, turbid, algae, lake, "
@@ -267,11 +265,9 @@ class GeneratorConfig:
         for name in ("heading", "sun_elevation", "sun_azimuth"):
             n = len(getattr(self, name).choices)
             if self.pair_pitch and n and n != n_alt:
-                flag = "--" + name.replace("_", "-")
-                raise SettingError(name, f"{{name}} is a list of {n} but --pair-pitch draws "
-                                         f"the k-th of lists of --altitude's length "
-                                         f"({n_alt}): give {flag} {n_alt} values, or a value "
-                                         f"or range lo-hi")
+                raise SettingError(name, f"{{name}} is a list of {n} but --pair-pitch draws the "
+                                         f"k-th of lists of --altitude's length ({n_alt}): give "
+                                         f"{{name}} {n_alt} values, or a value or range lo-hi")
 
     def _check_water(self) -> None:
         """Waters, skies, the camera look and the user's footage (and its labels)."""

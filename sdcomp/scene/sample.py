@@ -27,7 +27,6 @@ from .objects import (
     under_way,
     visible_hull,
 )
-from .params import Param
 from .scene import FeatureSeeds, Placement, Role, Scene, Shore, on_land
 from .water import SKY_WEIGHTS, WaterParams, constituents, parse_water
 
@@ -59,7 +58,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
     altitude, pitch, k = _altitude_pitch(rng, config)
-    pose = CameraPose(altitude, pitch, _paired(config.heading, rng, k) % 360.0)
+    pose = CameraPose(altitude, pitch, config.heading.sample_at(rng, k) % 360.0)
     water = sample_water(rng, config, k)
     shore = None
     if rng.random() < config.shore:
@@ -127,9 +126,8 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig, k: int | Non
     ``config.water`` (a preset draws one of its types), its constituents placed by the
     turbidity in the type's ranges (log scale, each +-0.15 at random), patchiness, a shallow
     bottom with probability ``config.shallow``, waves (slicks on calm water, swell on the
-    sea), the sky, the sun (at the flight log's place ``k`` where paired: :func:`_paired`)
-    and the exposure target. Every value is drawn whether it is used or not, so the draws
-    after it do not shift."""
+    sea), the sky, the sun (at the flight log's entry ``k``: :meth:`Param.sample_at`) and the
+    exposure target. Every value is drawn whether it is used or not: later draws stay put."""
     name, types, rgb = parse_water(config.water[int(rng.integers(len(config.water)))])
     wtype = types[int(rng.integers(len(types)))]
     turbidity = config.turbidity.sample(rng)
@@ -155,8 +153,8 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig, k: int | Non
         sky=sky, cloud_cover=cover, cloud_height=rng.uniform(800.0, 2500.0),
         cloud_scale=_log_uniform(rng, 6.0, 25.0), cloud_bright=rng.uniform(0.7, 1.1),
         visibility=_log_uniform(rng, 6000.0, 40000.0),
-        sun_elevation=_paired(config.sun_elevation, rng, k),
-        sun_azimuth=_paired(config.sun_azimuth, rng, k) % 360.0,
+        sun_elevation=config.sun_elevation.sample_at(rng, k),
+        sun_azimuth=config.sun_azimuth.sample_at(rng, k) % 360.0,
         exposure_target=rng.uniform(0.16, 0.21), seed=int(rng.integers(2**31)))
 
 
@@ -172,16 +170,6 @@ def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig
     k = min(int(rng.random() * n), n - 1)
     rng.random()
     return config.altitude.choices[k], config.pitch.choices[k], k
-
-
-def _paired(param: Param, rng: np.random.Generator, k: int | None) -> float:
-    """``param``'s value at the flight log's place ``k`` where it is a list of the log's
-    length (heading, sun elevation and azimuth with ``pair_pitch``: the view relative to
-    the sun), else a draw of it; one draw from ``rng`` either way."""
-    u = param.sample(rng)
-    if k is not None and param.choices:
-        return param.choices[k]
-    return u
 
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
