@@ -496,6 +496,9 @@ def test_sample_arrays_annotations_and_metadata(rov, rov_frames):
     assert meta["gimbal_pitch(degrees)"] == round(sc.camera.pitch, 4)
     # DJI's convention: clockwise from north (+y), -180 to 180
     assert meta["gimbal_heading(degrees)"] == round((90 - sc.camera.heading + 180) % 360 - 180, 4)
+    # the sun's azimuth in the same convention: the difference is the view's angle from it
+    assert meta["sun_azimuth(degrees)"] == round((90 - sc.water.sun_azimuth + 180) % 360 - 180,
+                                                 3)
     assert meta["gsd(m/px)"] == pytest.approx(
         sc.camera.altitude / rov.model.fx / frame.camera["zoom"], abs=1e-6)
     assert meta["turbidity"] == round(sc.water.turbidity, 4)

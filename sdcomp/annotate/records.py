@@ -119,7 +119,8 @@ def camera_record(frame: Frame, preset: str = "") -> dict:
 
 def image_meta(frame: Frame) -> dict:
     """Per-image metadata (names follow SeaDronesSee's ``meta`` where they overlap;
-    ``gimbal_heading(degrees)`` in DJI's convention: clockwise from north, -180 to 180): the
+    ``gimbal_heading(degrees)`` and ``sun_azimuth(degrees)`` in DJI's convention: clockwise
+    from north, -180 to 180, so that their difference is the view's angle from the sun): the
     camera's pose and ground sampling distance, the water (its name, type, constituents,
     mean beam attenuation, colour swatch), waves, sky and sun, what else is in the frame,
     and what the camera did (look preset, stages, exposure, blur; its intrinsics and
@@ -148,7 +149,7 @@ def image_meta(frame: Frame) -> dict:
         "sky": w.sky,
         "cloud_cover": round(w.cloud_cover, 3),
         "sun_elevation(degrees)": round(w.sun_elevation, 3),
-        "sun_azimuth(degrees)": round(w.sun_azimuth, 3),
+        "sun_azimuth(degrees)": round(dji_heading(w.sun_azimuth), 3),
         "shore": s.shore is not None,
         "hills": s.hills is not None,
         "clutter": s.count(Role.CLUTTER),

@@ -117,8 +117,8 @@ class GeneratorConfig:
                               "or list a,b,c", "M", *ALTITUDE_RANGE, unit="m")
     pitch: Param = setting(90, "param", "gimbal pitch below the horizon, degrees: 90 straight "
                            "down, down to 2 (nearly level)", "DEG", *PITCH_RANGE, unit="degrees")
-    heading: Param = setting("0-360", "param", "camera heading, degrees", "DEG", -360.0,
-                             720.0, "degrees")
+    heading: Param = setting("0-360", "param", "camera heading, degrees anticlockwise from "
+                             "east", "DEG", -360.0, 720.0, "degrees")
     pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch (and --heading, --sun-"
                                "elevation, --sun-azimuth lists of that length) with the k-th "
                                "--altitude: a joint distribution, e.g. from flight logs")
@@ -149,8 +149,8 @@ class GeneratorConfig:
     # light
     sun_elevation: Param = setting("25-80", "param", "sun elevation above the horizon, degrees",
                                    "DEG", 5.0, 90.0, "degrees")
-    sun_azimuth: Param = setting("0-360", "param", "sun azimuth, degrees", "DEG", -360.0,
-                                 720.0, "degrees")
+    sun_azimuth: Param = setting("0-360", "param", "sun azimuth, degrees anticlockwise from "
+                                 "east", "DEG", -360.0, 720.0, "degrees")
     sky: tuple[str, ...] = setting(SKY_KINDS, "custom", "skies, one per image at random: "
                                    "clear, broken (clouds), overcast, drawn as drones fly "
                                    "(0.4, 0.45, 0.15 of the time)", "SKY")
