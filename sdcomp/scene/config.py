@@ -120,8 +120,8 @@ class GeneratorConfig:
     heading: Param = setting("0-360", "param", "camera heading, degrees anticlockwise from "
                              "east", "DEG", -360.0, 720.0, "degrees")
     pair_pitch: bool = setting(False, "bool", "draw the k-th --pitch (and --heading, --sun-"
-                               "elevation, --sun-azimuth lists of that length) with the k-th "
-                               "--altitude: a joint distribution, e.g. from flight logs")
+                               "elevation, --sun-azimuth lists of that length; others apart) "
+                               "with the k-th --altitude: a joint distribution, e.g. flight logs")
     # water
     water: tuple[str, ...] = setting(("brown", "blue", "green"), "custom", "waters, one per "
                                      "image at random: ocean, coastal, turbid, algae, lake, "
@@ -262,12 +262,6 @@ class GeneratorConfig:
                                              f"of one length (--altitude is {kind(n_alt)}, "
                                              f"--pitch {kind(n_pitch)}): give both as lists, "
                                              f"or add --no-pair-pitch")
-        for name in ("heading", "sun_elevation", "sun_azimuth"):
-            n = len(getattr(self, name).choices)
-            if self.pair_pitch and n and n != n_alt:
-                raise SettingError(name, f"{{name}} is a list of {n} but --pair-pitch draws the "
-                                         f"k-th of lists of --altitude's length ({n_alt}): give "
-                                         f"{{name}} {n_alt} values, or a value or range lo-hi")
 
     def _check_water(self) -> None:
         """Waters, skies, the camera look and the user's footage (and its labels)."""

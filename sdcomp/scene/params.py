@@ -49,12 +49,12 @@ class Param:
             return float(min(int(self.lo + u * (self.hi - self.lo + 1)), int(self.hi)))
         return self.lo + u * (self.hi - self.lo)
 
-    def sample_at(self, rng: np.random.Generator, k: int | None) -> float:
-        """The value at place ``k`` of its list where it is one and ``k`` is given (a flight
-        log's entry: ``pair_pitch``), else :meth:`sample`'s; one draw from ``rng`` either
-        way."""
+    def sample_at(self, rng: np.random.Generator, at: tuple[int, int] | None) -> float:
+        """The value at place ``k`` of its list where it is a list of ``n``, ``at`` = (k, n)
+        (a flight log's entry: ``pair_pitch``), else :meth:`sample`'s; one draw from
+        ``rng`` either way."""
         u = self.sample(rng)
-        return self.choices[k] if k is not None and self.choices else u
+        return self.choices[at[0]] if at is not None and len(self.choices) == at[1] else u
 
     def to_json(self):
         """A number, a "lo-hi" string or a list: the form :func:`parse_param` reads back."""

@@ -57,9 +57,9 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     """Draw the scene of image ``index``; a pure function of (config, index)."""
     rng = scene_rng(config.seed, index)
     model = model or config.camera_model()
-    altitude, pitch, k = _altitude_pitch(rng, config)
-    pose = CameraPose(altitude, pitch, config.heading.sample_at(rng, k) % 360.0)
-    water = sample_water(rng, config, k)
+    altitude, pitch, at = _altitude_pitch(rng, config)
+    pose = CameraPose(altitude, pitch, config.heading.sample_at(rng, at) % 360.0)
+    water = sample_water(rng, config, at)
     shore = None
     if rng.random() < config.shore:
         footprint = pose.altitude * model.width / model.fx
@@ -120,13 +120,13 @@ def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
-def sample_water(rng: np.random.Generator, config: GeneratorConfig, k: int | None = None
-                 ) -> WaterParams:
+def sample_water(rng: np.random.Generator, config: GeneratorConfig,
+                 at: tuple[int, int] | None = None) -> WaterParams:
     """The water and sky of one image (see :class:`WaterParams`): the water named by
     ``config.water`` (a preset draws one of its types), its constituents placed by the
     turbidity in the type's ranges (log scale, each +-0.15 at random), patchiness, a shallow
     bottom with probability ``config.shallow``, waves (slicks on calm water, swell on the
-    sea), the sky, the sun (at the flight log's entry ``k``: :meth:`Param.sample_at`) and the
+    sea), the sky, the sun (at the flight log's entry ``at``: :meth:`Param.sample_at`) and the
     exposure target. Every value is drawn whether it is used or not: later draws stay put."""
     name, types, rgb = parse_water(config.water[int(rng.integers(len(config.water)))])
     wtype = types[int(rng.integers(len(types)))]
@@ -153,23 +153,23 @@ def sample_water(rng: np.random.Generator, config: GeneratorConfig, k: int | Non
         sky=sky, cloud_cover=cover, cloud_height=rng.uniform(800.0, 2500.0),
         cloud_scale=_log_uniform(rng, 6.0, 25.0), cloud_bright=rng.uniform(0.7, 1.1),
         visibility=_log_uniform(rng, 6000.0, 40000.0),
-        sun_elevation=config.sun_elevation.sample_at(rng, k),
-        sun_azimuth=config.sun_azimuth.sample_at(rng, k) % 360.0,
+        sun_elevation=config.sun_elevation.sample_at(rng, at),
+        sun_azimuth=config.sun_azimuth.sample_at(rng, at) % 360.0,
         exposure_target=rng.uniform(0.16, 0.21), seed=int(rng.integers(2**31)))
 
 
 def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig
-                    ) -> tuple[float, float, int | None]:
-    """The camera's altitude (m) and pitch (degrees), and the place ``k`` in the flight log
-    they were drawn at: drawn apart (``k`` None), or, with ``pair_pitch``, the pitch at the
-    altitude's place in its list (one draw picks the place as :meth:`Param.sample` would;
-    the pitch's draw is made and unused, so that the draws after it stay where they are)."""
+                    ) -> tuple[float, float, tuple[int, int] | None]:
+    """The camera's altitude (m) and pitch (degrees), and the place (k, n) in the flight log
+    of n entries they were drawn at: drawn apart (None), or, with ``pair_pitch``, the pitch
+    at the altitude's place in its list (one draw picks the place as :meth:`Param.sample`
+    would; the pitch's draw is made and unused, so that the draws after it stay put)."""
     if not config.pair_pitch:
         return config.altitude.sample(rng), config.pitch.sample(rng), None
     n = len(config.altitude.choices)
     k = min(int(rng.random() * n), n - 1)
     rng.random()
-    return config.altitude.choices[k], config.pitch.choices[k], k
+    return config.altitude.choices[k], config.pitch.choices[k], (k, n)
 
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
