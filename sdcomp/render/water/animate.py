@@ -65,8 +65,10 @@ def band_split(base: WaterTextures, b: int, angle_deg: float, downwind: float) -
 def _level_modes(base: WaterTextures, s: int, level: int, downwind: float) -> tuple:
     """The time-independent part of :func:`evolved_spectrum` (cached): flat FFT indices
     (M,) of the level's modes (its bands' indices are disjoint), the factors (M,)
-    complex128 of the forward and backward waves (slope packing, axis turn, half-tile roll
-    folded in) and omega (M,) rad/s."""
+    complex64 ``P = fwd + back`` and ``Q = -i (fwd - back)`` of the forward and backward
+    waves (slope packing, axis turn, half-tile roll folded in; at phase ``theta`` the
+    mode is ``fwd e^(-i theta) + back e^(i theta) = P cos theta + Q sin theta``) and omega
+    (M,) rad/s."""
     n = N_TILE
     angle = SET_ANGLES[s]
     rot = complex(math.cos(math.radians(angle)), -math.sin(math.radians(angle)))
@@ -81,7 +83,9 @@ def _level_modes(base: WaterTextures, s: int, level: int, downwind: float) -> tu
         fwd.append(f * sp["fwd"])
         back.append(f * sp["back"])
         om.append(sp["omega"])
-    return np.concatenate(idx), np.concatenate(fwd), np.concatenate(back), np.concatenate(om)
+    f_all, b_all = np.concatenate(fwd), np.concatenate(back)
+    return (np.concatenate(idx), (f_all + b_all).astype(np.complex64),
+            (-1j * (f_all - b_all)).astype(np.complex64), np.concatenate(om))
 
 
 def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
@@ -89,11 +93,15 @@ def evolved_spectrum(base: WaterTextures, s: int, level: int, t: float,
     """(N_TILE, N_TILE) complex64 spectrum of level tile ``level`` of set ``s`` at ``t``
     seconds: its inverse FFT is ``su + i sc`` (upwind and crosswind slopes in the still
     tile's FFT units, columns holding tile x ``c - N/2``: the half-tile roll is a phase
-    ``(-1)**kx``)."""
-    idx, fwd, back, om = _level_modes(base, s, level, 1.0 if downwind >= 0 else -1.0)
-    ph = np.exp(-1j * om * float(t))
+    ``(-1)**kx``). The phases ``omega t`` are reduced to [-pi, pi] in double precision,
+    their cosines and sines taken in single (a relative error of about 2e-7 in the
+    spectrum, that of its complex64 storage; a fifth of the cost of a complex exp)."""
+    idx, p, q, om = _level_modes(base, s, level, 1.0 if downwind >= 0 else -1.0)
+    phase = om * float(t)
+    phase -= np.rint(phase * (0.5 / math.pi)) * (2.0 * math.pi)
+    phase32 = phase.astype(np.float32)
     spec = np.zeros(N_TILE * N_TILE, np.complex64)
-    spec[idx] = fwd * ph + back * np.conj(ph)
+    spec[idx] = p * np.cos(phase32) + q * np.sin(phase32)
     return spec.reshape(N_TILE, N_TILE)
 
 
