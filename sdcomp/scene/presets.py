@@ -47,9 +47,9 @@ SDS_PITCH = (75, 45, 45, 52, 66, 59, 15, 14, 11, 18, 11, 16, 34, 34, 2, 2, 2, 2,
 # The same 100 frames' view of the sun (tools/sds_sun_geometry.py: the sun's position from
 # each frame's UTC time, latitude and longitude): the camera's heading relative to the sun
 # (sdcomp's azimuths, the sun at 0; drawn paired, so a frame's pitch keeps its heading: 7 %
-# of the 1030 frames look within 30 degrees of the sun, where a uniform heading has 17 %, and
-# so into its glitter) and the sun's elevation (midday in August at 47-54 degrees north:
-# 43-51 degrees, where sdcomp's default draws 25-80).
+# of the 1030 frames (9 of these 100) look within 30 degrees of the sun, where a uniform
+# heading has 17 %, and so into its glitter) and the sun's elevation (midday in August at
+# 47-54 degrees north: 43-51 degrees, where sdcomp's default draws 25-80).
 SDS_HEADING = (313, 60, 299, 302, 311, 310, 163, 159, 124, 206, 118, 219, 341, 342, 298, 298, 298,
                298, 341, 87, 87, 87, 341, 341, 341, 167, 167, 346, 304, 151, 358, 304, 304, 325,
                324, 327, 195, 231, 346, 206, 231, 185, 118, 166, 97, 247, 247, 248, 247, 231, 226,
