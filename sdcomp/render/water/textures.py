@@ -250,13 +250,18 @@ class WaterTextures:
         return total
 
 
-def _normal_tail(x: np.ndarray) -> np.ndarray:
-    """P(N > x) for a standard normal N (Abramowitz & Stegun 7.1.26 erfc, |err| < 1.5e-7)."""
-    z = np.abs(x) * np.float32(1 / math.sqrt(2))
-    t = 1.0 / (1.0 + np.float32(0.3275911) * z)
+def erfc_nonneg(z: np.ndarray) -> np.ndarray:
+    """erfc(z) for z >= 0 (Abramowitz & Stegun 7.1.26, |err| < 1.5e-7), in ``z``'s float
+    dtype."""
+    t = 1.0 / (1.0 + 0.3275911 * z)
     poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (
         -1.453152027 + t * 1.061405429))))
-    half_erfc = 0.5 * poly * np.exp(-z * z)
+    return poly * np.exp(-z * z)
+
+
+def _normal_tail(x: np.ndarray) -> np.ndarray:
+    """P(N > x) for a standard normal N (:func:`erfc_nonneg`)."""
+    half_erfc = 0.5 * erfc_nonneg(np.abs(x) * np.float32(1 / math.sqrt(2)))
     return np.where(x >= 0, half_erfc, 1.0 - half_erfc).astype(np.float32)
 
 

@@ -14,7 +14,7 @@ from .base import LAYERS, SLOPE_NU, uniforms
 from .geometry import RESOLVE
 from .sky import norm_ppf
 from .spectrum import FULLY_DEVELOPED, band_slope_variance, cox_munk, whitecap_fraction
-from .textures import N_LEVELS, N_TILE, SLOPE_SCALE, WaterTextures, pitch
+from .textures import N_LEVELS, N_TILE, SLOPE_SCALE, WaterTextures, erfc_nonneg, pitch
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,10 +171,7 @@ def masking(w, e_u, e_c, var_u, var_c):
     horiz2 = np.maximum(hx * hx + hy * hy, 1e-12)
     var = (var_u * hx * hx + var_c * hy * hy) / horiz2
     a = np.maximum(w[..., 2], 1e-6) / np.sqrt(2.0 * horiz2 * np.maximum(var, 1e-12))
-    t = 1.0 / (1.0 + 0.3275911 * a)  # erfc(a), a >= 0 (Abramowitz & Stegun 7.1.26)
-    erfc = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (
-        -1.453152027 + t * 1.061405429)))) * np.exp(-a * a)
-    return np.maximum((np.exp(-a * a) / (math.sqrt(math.pi) * a) - erfc) / 2.0, 0.0)
+    return np.maximum((np.exp(-a * a) / (math.sqrt(math.pi) * a) - erfc_nonneg(a)) / 2.0, 0.0)
 
 
 CAPILLARITY = 7.28e-5  # m^3/s^2: surface tension over density of sea water
