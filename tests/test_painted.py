@@ -14,6 +14,7 @@ from sdcomp import GeneratorConfig
 from sdcomp.fitting.footage import read_footage
 from sdcomp.fitting.stats import SCALES
 from sdcomp.pipeline import Generator
+from sdcomp.render.camera.codec import jpeg_roundtrip
 from sdcomp.report.realism.objects import box_statistics
 from sdcomp.report.realism.painted import PAINT_MARGIN, painted_mask, shrink_valid
 from sdcomp.report.realism.sources import PAINT_HOW, load_frame, load_real
@@ -43,10 +44,7 @@ def _paint(rgb: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _jpeg(rgb: np.ndarray, quality: int) -> np.ndarray:
-    ok, data = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
-                            [cv2.IMWRITE_JPEG_QUALITY, quality])
-    assert ok
-    return cv2.cvtColor(cv2.imdecode(data, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    return jpeg_roundtrip(rgb, quality)[0]
 
 
 @pytest.fixture(scope="module")
