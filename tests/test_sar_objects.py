@@ -347,8 +347,8 @@ def test_paired_pitch_draws_the_heading_and_sun_of_the_same_frame():
         assert a.water.wind == b.water.wind and a.water.sky == b.water.sky
     assert seen == set(log)
     other = replace(paired, sun_elevation=[30, 40])
-    drawn = {(sample_scene(other, i).camera.altitude, sample_scene(other, i).water.sun_elevation)
-             for i in range(60)}
+    drawn = {(sc.camera.altitude, sc.water.sun_elevation)
+             for sc in (sample_scene(other, i) for i in range(60))}
     assert {e for _, e in drawn} == {30, 40} and len(drawn) > 4  # not tied to the altitude
 
 

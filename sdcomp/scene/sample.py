@@ -163,13 +163,12 @@ def _altitude_pitch(rng: np.random.Generator, config: GeneratorConfig
     """The camera's altitude (m) and pitch (degrees), and the place (k, n) in the flight log
     of n entries they were drawn at: drawn apart (None), or, with ``pair_pitch``, the pitch
     at the altitude's place in its list (one draw picks the place as :meth:`Param.sample`
-    would; the pitch's draw is made and unused, so that the draws after it stay put)."""
+    would; the pitch's :meth:`Param.sample_at` makes its draw too, so later draws stay put)."""
     if not config.pair_pitch:
         return config.altitude.sample(rng), config.pitch.sample(rng), None
     n = len(config.altitude.choices)
     k = min(int(rng.random() * n), n - 1)
-    rng.random()
-    return config.altitude.choices[k], config.pitch.choices[k], (k, n)
+    return config.altitude.choices[k], config.pitch.sample_at(rng, (k, n)), (k, n)
 
 
 def _placements(rng: np.random.Generator, config: GeneratorConfig, model: CameraModel,
