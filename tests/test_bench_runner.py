@@ -91,3 +91,23 @@ def test_half_done_grid_resumes_and_reports(tmp_path, sprites_dir):
     other = GRID.with_overrides({"max_iter": 3})
     with pytest.raises(UserError, match="other settings"):
         run_grid(other, test, ctx, log=log.append)
+
+
+def test_datasets_only_generates_what_train_then_reuses(tmp_path, sprites_dir, capsys):
+    """`grid --datasets-only` trains nothing; a `train --cell` after it generates nothing."""
+    common = ["--preset", "paper-table2", "--size-scale", "0.006", "--image-size", "64",
+              "--field-n", "3", "--out", str(tmp_path / "r"), "--sprites", str(sprites_dir),
+              "--workers", "1", "--threads", "1", "--no-progress", "--device", "cpu"]
+    assert run_cli(main, ["grid", "--datasets-only", *common]) == 0
+    assert "the datasets of 3 cells and the test set" in capsys.readouterr().out
+    made = sorted(p.name for p in (tmp_path / "r" / "datasets").iterdir())
+    assert [n.rsplit("-", 1)[0] for n in made] == [
+        "alt10-blue", "alt10-brown", "alt10-green", "field64"]
+    assert not (tmp_path / "r" / "cells").exists()
+    train = ["--backbone", "mobilenet_v3-fpn", "--max-iter", "1", "--batch-size", "2",
+             "--warmup-iters", "0", "--proposals-train", "40", "--proposals-test", "20",
+             "--roi-batch", "16", "--lr", "0.01"]
+    assert run_cli(main, ["train", "--cell", "alt10-blue-n626", *common, *train]) == 0
+    cell = json.loads(cell_path(tmp_path / "r", "alt10-blue-n626").read_text())
+    assert [d["reused"] for d in cell["config"]["datasets"]] == [True]
+    assert sorted(p.name for p in (tmp_path / "r" / "datasets").iterdir()) == made

@@ -101,6 +101,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--overwrite", action="store_true",
                    help="retrain every cell even if results exist")
     g.add_argument("--list", action="store_true", help="list the preset's cells and exit")
+    g.add_argument("--datasets-only", action="store_true",
+                   help="generate every cell's datasets and the test set into the cache, "
+                   "train nothing (e.g. on CPU nodes before the GPU job, or before "
+                   "`train --cell` runs in parallel)")
     _common(g)
     t = sub.add_parser("train", help="train and score one cell of a preset")
     t.add_argument("--out", required=True, metavar="DIR", help="results folder")
@@ -229,6 +233,13 @@ def cmd_grid(args) -> int:
     ctx = _context(args, out)
     test = _test_set(args, grid, ctx.cache)
     start = time.perf_counter()
+    if args.datasets_only:
+        from .runner import ensure_cell_datasets
+        for cell in grid.cells():
+            ensure_cell_datasets(grid, cell, ctx.cache)
+        print(f"grid {grid.name}: the datasets of {len(grid.cells())} cells and the test set "
+              f"are in {ctx.cache.cache_dir} ({time.perf_counter() - start:.1f} s)")
+        return 0
     print(f"grid {grid.name}: {len(grid.cells())} cells on {ctx.device}, test set: "
           f"{test.label}")
     run_grid(grid, test, ctx, overwrite=args.overwrite)

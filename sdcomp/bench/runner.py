@@ -115,6 +115,13 @@ def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
     return data
 
 
+def ensure_cell_datasets(grid: GridSpec, cell: Cell, cache: CacheOptions) -> list[Path]:
+    """Generate (or find in ``cache``) the datasets ``cell`` trains on; returns their
+    folders."""
+    parts = grid.parts(cell)
+    return _ensure_datasets(parts, [p.generator_config() for p in parts], cache)[0]
+
+
 def _ensure_datasets(parts: list[DatasetPart], configs: list, cache: CacheOptions
                      ) -> tuple[list[Path], list[bool]]:
     """Generate (or find in the cache) the dataset of each of a cell's ``parts``, made with
