@@ -87,7 +87,7 @@ def markdown(meta: dict, rows: dict[tuple[int, str], dict]) -> str:
             data = rows.get((table.number, label))
             paper = PAPER.get(table.number, {}).get(label, ())
             if data is None:
-                ours = ["(not run)", *[""] * len(METRICS)]
+                ours = ["(not run)", *[""] * (len(METRICS) + 1)]  # metrics, val AP50
             else:
                 m = data["test"]["metrics"]
                 ours = [str(data.get("train_images", "")), *(_pct(m[k]) for k in METRICS),
