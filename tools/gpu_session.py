@@ -24,8 +24,8 @@ once kept the GPU 97-100 % busy: the X101 trainings ran at 2.9 iterations/s each
 4.3 each with five X101 alone (21 together, about twice one cell alone on an H100, 10); the
 MobileNetV3 sim2real runs took 170 s of training each. That was too many at once for a
 520 s deadline: only four MobileNetV3 runs ended in it; three cells and the two X101 sim2real
-runs ended in a second, 235 s call that resumed them. Plan ``--big-jobs`` x 1500 iterations
-/ (4 it/s) seconds for the X101 pool, and fewer small runs beside it.
+runs ended in a second, 235 s call that resumed them. Plan on 1500 / 4.3 = 350 s for each
+wave of five X101 cells run alone, and the small runs after them, not beside them.
 """
 
 from __future__ import annotations
