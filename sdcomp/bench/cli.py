@@ -230,6 +230,8 @@ def cmd_grid(args) -> int:
     if not args.out:
         raise UserError("grid needs --out DIR, the results folder")
     out = Path(args.out)
+    if args.datasets_only:  # no training: the GPU job's --device need not be here
+        args.device = "cpu"
     ctx = _context(args, out)
     test = _test_set(args, grid, ctx.cache)
     start = time.perf_counter()
