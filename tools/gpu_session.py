@@ -81,8 +81,9 @@ class Session:
               f"{time.monotonic() - t0:.0f} s", flush=True)
         return rc
 
-    def pool(self, jobs: list[tuple[str, list[str]]], width: int) -> threading.Thread:
-        """Run ``jobs`` in order, ``width`` at a time, in the background."""
+    def pool(self, jobs: list[tuple[str, list[str]]], width: int) -> list[threading.Thread]:
+        """Run ``jobs`` in order, ``width`` at a time, in the background; returns the
+        pool's threads (joined, it is done)."""
         queue = list(jobs)
 
         def worker() -> None:
@@ -96,9 +97,7 @@ class Session:
         threads = [threading.Thread(target=worker) for _ in range(width)]
         for t in threads:
             t.start()
-        joiner = threading.Thread(target=lambda: [t.join() for t in threads])
-        joiner.start()
-        return joiner
+        return threads
 
     def save(self) -> None:
         (self.results / "summary.json").write_text(json.dumps(self.records, indent=1))
@@ -109,7 +108,9 @@ def main() -> None:
     ap.add_argument("results", type=Path)
     ap.add_argument("--sprites", required=True)
     ap.add_argument("--deadline", type=float, default=520.0, help="seconds from the start")
-    ap.add_argument("--cells", nargs="*", default=[], help="paper grid cells, in order")
+    ap.add_argument("--cells", nargs="*", default=[],
+                    help="paper grid cells of Tables 1-2 (their datasets are made first), "
+                    "in order")
     ap.add_argument("--pairs", type=Path, help="folder of p{S}/footage and p{S}/fitted.toml")
     ap.add_argument("--pair-seeds", nargs="*", default=[],
                     help="STANDIN:TRAIN seed pairs of the fit experiment")
@@ -131,7 +132,7 @@ def main() -> None:
     common = ["--sprites", a.sprites, "--device", a.device, "--no-progress"]
     grid = ["--preset", "paper", "--out", str(r / "grid"), "--cache", str(r / "cache"),
             *common]
-    for table in ("paper-table1", "paper-table2"):
+    for table in ("paper-table1", "paper-table2") if a.cells else ():
         s.run(f"datasets-{table}", [*SDCOMP, "bench", "grid", "--datasets-only", "--preset",
                                     table, "--out", str(r / "grid"), "--cache",
                                     str(r / "cache"), "--sprites", a.sprites, "--workers",
@@ -163,10 +164,10 @@ def main() -> None:
     small = [s2r(standin, arm, f"mnv3-seed{seed}", [*MOBILENET, "--train-seed", str(seed)])
              for seed in a.train_seeds for standin, _ in pairs for arm in ("defaults",
                                                                              "fitted")]
-    pools = [s.pool(big, a.big_jobs), s.pool(small, a.small_jobs)]
-    for p in pools:
-        p.join()
-    s.run("report", [*SDCOMP, "bench", "report", str(r / "grid")])
+    for t in s.pool(big, a.big_jobs) + s.pool(small, a.small_jobs):
+        t.join()
+    if a.cells:
+        s.run("report", [*SDCOMP, "bench", "report", str(r / "grid")])
     print(f"done, {s.left():.0f} s before the deadline", flush=True)
 
 
