@@ -16,7 +16,7 @@ from sdcomp.bench.adapt import native_resolution, reestimate_batchnorm
 from sdcomp.bench.cli import main
 from sdcomp.bench.detector import build_detector
 from sdcomp.bench.evaluate import banded_metrics
-from sdcomp.bench.realdata import category_map, real_frames, training_data
+from sdcomp.bench.realdata import RealSet, TrainData, category_map, real_frames, training_data
 from sdcomp.errors import UserError
 
 from .datasets import cli
@@ -85,6 +85,25 @@ def _coco_named(tmp_path: Path, name: str) -> Path:
     p.write_text(json.dumps({"images": [{"id": 1, "file_name": f"{name}.png"}],
                              "annotations": [], "categories": []}))
     return p
+
+
+def test_sizes_note_flags_boxes_of_another_shape():
+    """A square frame of a 3:2 sensor draws boxes 1.5x as tall for their width as the
+    sensor's own aspect: the note says so and names the flags; boxes of the real shape and
+    size pass without a note."""
+    def train(aspect: float) -> TrainData:
+        boxes = np.array([[10, 10, 10 + 20 / aspect ** 0.5, 10 + 20 * aspect ** 0.5]] * 5,
+                         np.float32)
+        return TrainData([], ["a"], [(Path("x.jpg"), boxes, np.ones(5, np.int64))])
+
+    w, h = 20 / 0.8 ** 0.5, 20 * 0.8 ** 0.5  # 0.8 as tall as wide, 20 px
+    real = RealSet("r", [], {"annotations": [{"category_id": 4, "bbox": [0, 0, w, h],
+                                              "area": w * h}] * 3}, {4: "a"})
+    same = sim2real._sizes(train(0.8), real, {1: 4})
+    assert same["note"] == "" and same["generated_aspect"] == pytest.approx(0.8, rel=1e-4)
+    tall = sim2real._sizes(train(0.8 * 1.5), real, {1: 4})
+    assert tall["real_aspect"] == pytest.approx(0.8) and "1.20 in the generated" in tall["note"]
+    assert "--width and --height" in tall["note"] and "px (median)" not in tall["note"]
 
 
 def test_native_resolution_never_resizes():

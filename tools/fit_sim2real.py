@@ -5,13 +5,21 @@ seeds (about 50 minutes on 2 cores):
    ``--standin-seed``), tinted green (R x 0.55 + 10, G x 0.75 + 35, B x 0.6 + 20) and saved
    as JPEG 95, with its labels as one COCO file;
 2. ``sdcomp fit`` on it (its labels keep the robots out of the water statistics);
-3. two training sets of 400 images at 256 px (3-6 m, 320 train, 80 val, seed
-   ``--train-seed``): the defaults and the fitted config, the same geometry;
+3. two training sets of 400 images (320 train, 80 val, seed ``--train-seed``): the
+   defaults and the fitted config, the same geometry: the footage's aspect at
+   ``--train-width`` px wide (384 x 216), flown lower in proportion (3-5.4 m), so that the
+   robots show the footage's shapes and pixel sizes. Before 2026-11-28 the sets were
+   256 x 256 at 3-6 m: a 3:2 sensor squeezed into a square draws every box 1.8 times as
+   tall for its width as the 16:9 footage does (``sdcomp realism --objects``: median box
+   aspect 1.47 against 0.82), in both arms;
 4. ``sdcomp bench sim2real`` on each (MobileNetV3-FPN from scratch, SGD lr 0.01, 400
    iterations of 4 images, one torch thread each, both at once), which scores the
    detector on the stand-in as trained and after BatchNorm re-estimation on it.
 
     python tools/fit_sim2real.py WORKDIR [--standin-seed 7] [--train-seed 11]
+        [--train-width 384] [--refit]
+
+A ``fitted.toml`` already in WORKDIR is used as it is unless ``--refit``.
 
 Prints one line per detector: generated val AP50, footage AP50 as trained and after
 BatchNorm re-estimation (read from each run's ``sim2real.json``).
@@ -29,6 +37,8 @@ import cv2
 import numpy as np
 
 TINT = ((0.55, 10.0), (0.75, 35.0), (0.6, 20.0))  # (gain, offset) for R, G, B
+STANDIN_SIZE = (640, 360)  #: the stand-in footage's frame, px
+STANDIN_ALTITUDE = (5.0, 9.0)  #: metres
 
 
 def run(*args: str) -> None:
@@ -65,18 +75,27 @@ def main() -> None:
     ap.add_argument("--standin-seed", type=int, default=7)
     ap.add_argument("--train-seed", type=int, default=11)
     ap.add_argument("--sprites", default=None)
+    ap.add_argument("--train-width", type=int, default=384,
+                    help="training images' width; height and altitude follow the footage")
+    ap.add_argument("--refit", action="store_true", help="fit again over a fitted.toml")
     a = ap.parse_args()
     w: Path = a.workdir
     sprites = ["--sprites", a.sprites] if a.sprites else []
     quiet = ["--no-progress", "-q"]
     if not (w / "standin" / "dataset.json").exists():
-        run("generate", "--n", "40", "--width", "640", "--height", "360", "--altitude", "5-9",
+        run("generate", "--n", "40", "--width", str(STANDIN_SIZE[0]), "--height",
+            str(STANDIN_SIZE[1]), "--altitude", f"{STANDIN_ALTITUDE[0]:g}-{STANDIN_ALTITUDE[1]:g}",
             "--seed", str(a.standin_seed), "--out", str(w / "standin"), *sprites, *quiet)
     labels = tint(w / "standin", w / "footage")
-    run("fit", str(w / "footage"), "--labels", str(labels), "--out", str(w / "fitted.toml"),
-        *sprites, "-q")
-    train = ["--n", "400", "--size", "256", "--altitude", "3-6", "--seed", str(a.train_seed),
-             *sprites, *quiet]
+    if a.refit or not (w / "fitted.toml").exists():
+        run("fit", str(w / "footage"), "--labels", str(labels), "--out",
+            str(w / "fitted.toml"), *sprites, "-q")
+    # the footage's aspect and pixel sizes: the same lens over a narrower frame, lower
+    scale = a.train_width / STANDIN_SIZE[0]
+    height = round(STANDIN_SIZE[1] * scale)
+    altitude = f"{STANDIN_ALTITUDE[0] * scale:.2f}-{STANDIN_ALTITUDE[1] * scale:.2f}"
+    train = ["--n", "400", "--width", str(a.train_width), "--height", str(height),
+             "--altitude", altitude, "--seed", str(a.train_seed), *sprites, *quiet]
     if not (w / "defaults" / "dataset.json").exists():
         run("generate", *train, "--out", str(w / "defaults"))
     run("generate", "--config", str(w / "fitted.toml"), *train, "--out", str(w / "fitted"),

@@ -47,6 +47,12 @@ class TrainData:
                  for _, b, lab in self.items]
         return np.concatenate(sides) if sides else np.zeros(0)
 
+    def box_aspects(self, classes: set[int]) -> np.ndarray:
+        """(n,) float64 height / width of the training boxes of ``classes``."""
+        out = [((b[:, 3] - b[:, 1]) / np.maximum(b[:, 2] - b[:, 0], 1e-6))[
+            np.isin(lab, list(classes))] for _, b, lab in self.items]
+        return np.concatenate(out) if out else np.zeros(0)
+
     @property
     def image_size(self) -> int:
         """The largest side of the generated images, pixels."""
@@ -110,6 +116,12 @@ class RealSet:
     def box_sides(self, category_ids: set[int]) -> np.ndarray:
         """(n,) float64 sqrt(w h) of the labelled boxes of ``category_ids``, pixels."""
         return np.asarray([np.sqrt(a["area"]) for a in self.coco["annotations"]
+                           if a["category_id"] in category_ids], np.float64)
+
+    def box_aspects(self, category_ids: set[int]) -> np.ndarray:
+        """(n,) float64 height / width of the labelled boxes of ``category_ids``."""
+        return np.asarray([a["bbox"][3] / max(a["bbox"][2], 1e-6)
+                           for a in self.coco["annotations"]
                            if a["category_id"] in category_ids], np.float64)
 
 

@@ -44,6 +44,11 @@ from .train import TrainConfig, read_image, train, train_key
 TRANSFER_GAP = 0.1  #: real AP50 this close to the synthetic one counts as transferring
 MIN_LEARNT = 0.3  #: below this synthetic val AP50 the detector is not trained enough to judge
 SIZE_RATIO = 1.5  #: median object sizes further apart than this are flagged
+#: median box aspects (height / width) further apart than this are flagged: a frame of
+#: another aspect than the sensor's is the sensor image resized, which stretches every
+#: object (a 3:2 sensor in a square frame draws boxes 1.8x as tall for their width as in
+#: 16:9 footage of the same camera)
+ASPECT_RATIO = 1.25
 UNLABELLED_MAX = 200  #: unlabelled frames used for BatchNorm re-estimation, at most
 
 
@@ -142,10 +147,11 @@ def _unlabelled(spec: Sim2RealSpec, real: RealSet) -> list:
 
 
 def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
-    """Object sizes (sqrt of the box area, pixels) of the scored categories: the medians, the
-    generated 2nd-98th percentile range and the fraction of real objects inside it, and a
-    note when the medians differ by more than :data:`SIZE_RATIO` or a quarter of the real
-    objects lie outside that range."""
+    """Object sizes (sqrt of the box area, pixels) and box aspects (height / width) of the
+    scored categories: the medians, the generated 2nd-98th percentile size range and the
+    fraction of real objects inside it, and a note when the median sizes differ by more than
+    :data:`SIZE_RATIO`, a quarter of the real objects lie outside that range or the median
+    aspects differ by more than :data:`ASPECT_RATIO`."""
     gen = data.box_sides(set(mapping))
     rl = real.box_sides(set(mapping.values()))
     if not gen.size or not rl.size:
@@ -153,6 +159,8 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
     g, r = float(np.median(gen)), float(np.median(rl))
     lo, hi = (float(v) for v in np.percentile(gen, [2, 98]))
     inside = float(np.mean((rl >= lo) & (rl <= hi)))
+    ga = float(np.median(data.box_aspects(set(mapping))))
+    ra = float(np.median(real.box_aspects(set(mapping.values()))))
     notes = []
     if max(g / r, r / g) > SIZE_RATIO:
         notes.append(f"the objects are {r:.0f} px (median) in the real frames but {g:.0f} px "
@@ -160,12 +168,18 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
     if inside < 0.75:
         notes.append(f"{100 * (1 - inside):.0f} % of the real objects are outside the "
                      f"generated sizes ({lo:.0f}-{hi:.0f} px)")
+    if max(ga / ra, ra / ga) > ASPECT_RATIO:
+        notes.append(f"the boxes are {ra:.2f} times as tall as wide (median) in the real "
+                     f"frames but {ga:.2f} in the generated ones (a frame of another aspect "
+                     f"than the camera's sensor stretches the objects: give --width and "
+                     f"--height the real frames' aspect)")
     note = "; ".join(notes)
     if note:
-        note += (": the detector is scored on sizes it was not trained on; generate at the "
-                 "real frames' altitude, camera and image size")
+        note += (": the detector is scored on sizes and shapes it was not trained on; "
+                 "generate at the real frames' altitude, camera and image size")
     return {"generated_median_px": g, "real_median_px": r, "generated_range_px": [lo, hi],
-            "real_inside_range": inside, "note": note}
+            "real_inside_range": inside, "generated_aspect": ga, "real_aspect": ra,
+            "note": note}
 
 
 def _detections(model, arrays: list[np.ndarray], device: str) -> list:
