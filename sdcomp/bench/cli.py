@@ -190,7 +190,9 @@ def _test_set(args, grid: GridSpec, cache):
     return field_test(grid.field, grid.image_size, cache)
 
 
-def _context(args, out: Path):
+def _context(args, out: Path, train: bool = True):
+    """The run's context from the parsed flags; ``train=False`` (datasets only) leaves the
+    device unresolved (cpu), so a GPU job's ``--device`` also runs where there is none."""
     from . import require_torch
     from .datasets import CacheOptions
     from .runner import RunContext
@@ -207,7 +209,8 @@ def _context(args, out: Path):
     cache = CacheOptions(Path(cache_dir) if cache_dir else out / "datasets",
                          sprites_folder(getattr(args, "sprites", DEFAULT_SPRITES)), workers,
                          getattr(args, "progress", None))
-    return RunContext(out, cache, resolve_device(args.device), getattr(args, "progress", None))
+    device = resolve_device(args.device) if train else "cpu"
+    return RunContext(out, cache, device, getattr(args, "progress", None))
 
 
 def _find_cell(grid: GridSpec, cell_id: str):
@@ -230,9 +233,7 @@ def cmd_grid(args) -> int:
     if not args.out:
         raise UserError("grid needs --out DIR, the results folder")
     out = Path(args.out)
-    if args.datasets_only:  # no training: the GPU job's --device need not be here
-        args.device = "cpu"
-    ctx = _context(args, out)
+    ctx = _context(args, out, train=not args.datasets_only)
     test = _test_set(args, grid, ctx.cache)
     start = time.perf_counter()
     if args.datasets_only:
