@@ -46,8 +46,8 @@ MIN_LEARNT = 0.3  #: below this synthetic val AP50 the detector is not trained e
 SIZE_RATIO = 1.5  #: median object sizes further apart than this are flagged
 #: median box aspects (height / width) further apart than this are flagged: a frame of
 #: another aspect than the sensor's is the sensor image resized, which stretches every
-#: object (a 3:2 sensor in a square frame draws boxes 1.8x as tall for their width as in
-#: 16:9 footage of the same camera)
+#: object (a 3:2 sensor in a square frame draws boxes 1.5x as tall for their width as its
+#: photos show them)
 ASPECT_RATIO = 1.25
 UNLABELLED_MAX = 200  #: unlabelled frames used for BatchNorm re-estimation, at most
 
