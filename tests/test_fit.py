@@ -559,3 +559,20 @@ def test_photos_exif_focal_length_gives_the_field_of_view(tmp_path, sprites_dir)
     # fit_footage passes the footage's field of view to the base config
     base, how = base_config(foot, 0, foot.fov)
     assert (base.camera, base.fov) == ("custom", 84.1) and "EXIF" in how
+
+
+def test_geometry_line_says_when_the_camera_stretches_the_footages_objects():
+    """Without a field of view the fit keeps the default camera (a 3:2 photo sensor) at the
+    footage's frame size: 16:9 frames draw its objects 0.84 times as tall for their width,
+    which the geometry line says (naming --fov); 3:2 frames and a known field of view (the
+    footage's frames are the sensor) draw them as they are."""
+    from sdcomp.fitting.api import base_config
+    from sdcomp.fitting.footage import Footage
+
+    def how(w: int, h: int, fov: float | None = None) -> str:
+        return base_config(Footage({}, {}, w, h), 0, fov)[1]
+
+    wide = how(512, 288)
+    assert "0.84 times as tall" in wide and "--fov" in wide, wide
+    assert "times as tall" not in how(480, 320)
+    assert "times as tall" not in how(512, 288, 74.4)

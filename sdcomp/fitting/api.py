@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -60,7 +61,22 @@ def base_config(footage: Footage, seed: int = 0, fov: float | None = None
                f"{'' if pitch else ' (default: not known)'}")
     if fov is not None:
         how += f"; camera: custom, {base.fov:g} degrees diagonally (--fov or the photos' EXIF)"
+    else:
+        how += _stretch_note(base)
     return base, how
+
+
+def _stretch_note(config: GeneratorConfig) -> str:
+    """'' when ``config``'s frames keep its camera's pixels square, else a clause saying
+    how much taller for their width its objects are drawn and that ``--fov`` mends it."""
+    m = config.camera_model()
+    stretch = m.fy / m.fx  # output pixels per sensor pixel, rows over columns
+    if abs(math.log(stretch)) < math.log(1.02):
+        return ""
+    return (f"; camera: {config.camera}'s {m.sensor_width} x {m.sensor_height} sensor resized "
+            f"to the footage's {config.width} x {config.height} frames draws objects "
+            f"{stretch:.2f} times as tall for their width as they are: give --fov (the "
+            f"frames' diagonal field of view) for a camera whose frames are the footage's")
 
 
 def fit_footage(frames: str | Path, labels: str | Path | None = None,
