@@ -89,21 +89,24 @@ def _coco_named(tmp_path: Path, name: str) -> Path:
 
 def test_sizes_note_flags_boxes_of_another_shape():
     """A square frame of a 3:2 sensor draws boxes 1.5x as tall for their width as the
-    sensor's own aspect: the note says so and names the flags; boxes of the real shape and
-    size pass without a note."""
-    def train(aspect: float) -> TrainData:
-        boxes = np.array([[10, 10, 10 + 20 / aspect ** 0.5, 10 + 20 * aspect ** 0.5]] * 5,
+    sensor's own aspect: the note names the category and the flags; boxes of the real shape
+    and size pass without a note, and so does a category with too few boxes to tell."""
+    def train(aspect: float, n: int = 5) -> TrainData:
+        boxes = np.array([[10, 10, 10 + 20 / aspect ** 0.5, 10 + 20 * aspect ** 0.5]] * n,
                          np.float32)
-        return TrainData([], ["a"], [(Path("x.jpg"), boxes, np.ones(5, np.int64))])
+        return TrainData([], ["buoy"], [(Path("x.jpg"), boxes, np.ones(n, np.int64))])
 
     w, h = 20 / 0.8 ** 0.5, 20 * 0.8 ** 0.5  # 0.8 as tall as wide, 20 px
     real = RealSet("r", [], {"annotations": [{"category_id": 4, "bbox": [0, 0, w, h],
-                                              "area": w * h}] * 3}, {4: "a"})
+                                              "area": w * h}] * 5}, {4: "buoy"})
     same = sim2real._sizes(train(0.8), real, {1: 4})
-    assert same["note"] == "" and same["generated_aspect"] == pytest.approx(0.8, rel=1e-4)
+    assert same["note"] == ""
+    assert same["aspects"]["buoy"]["generated"] == pytest.approx(0.8, rel=1e-4)
     tall = sim2real._sizes(train(0.8 * 1.5), real, {1: 4})
-    assert tall["real_aspect"] == pytest.approx(0.8) and "1.20 in the generated" in tall["note"]
+    assert "buoy 0.80 real, 1.20 generated" in tall["note"]
     assert "--width and --height" in tall["note"] and "px (median)" not in tall["note"]
+    few = sim2real._sizes(train(0.8 * 1.5, n=4), real, {1: 4})
+    assert few["note"] == "" and few["aspects"] == {}
 
 
 def test_native_resolution_never_resizes():

@@ -49,6 +49,7 @@ SIZE_RATIO = 1.5  #: median object sizes further apart than this are flagged
 #: object (a 3:2 sensor in a square frame draws boxes 1.5x as tall for their width as its
 #: photos show them)
 ASPECT_RATIO = 1.25
+ASPECT_MIN_BOXES = 5  #: boxes a category needs on each side for its aspects to be compared
 UNLABELLED_MAX = 200  #: unlabelled frames used for BatchNorm re-estimation, at most
 
 
@@ -150,8 +151,9 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
     """Object sizes (sqrt of the box area, pixels) and box aspects (height / width) of the
     scored categories: the medians, the generated 2nd-98th percentile size range and the
     fraction of real objects inside it, and a note when the median sizes differ by more than
-    :data:`SIZE_RATIO`, a quarter of the real objects lie outside that range or the median
-    aspects differ by more than :data:`ASPECT_RATIO`."""
+    :data:`SIZE_RATIO`, a quarter of the real objects lie outside that range or a
+    category's median aspects (each side with at least :data:`ASPECT_MIN_BOXES` boxes)
+    differ by more than :data:`ASPECT_RATIO`."""
     gen = data.box_sides(set(mapping))
     rl = real.box_sides(set(mapping.values()))
     if not gen.size or not rl.size:
@@ -159,8 +161,6 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
     g, r = float(np.median(gen)), float(np.median(rl))
     lo, hi = (float(v) for v in np.percentile(gen, [2, 98]))
     inside = float(np.mean((rl >= lo) & (rl <= hi)))
-    ga = float(np.median(data.box_aspects(set(mapping))))
-    ra = float(np.median(real.box_aspects(set(mapping.values()))))
     notes = []
     if max(g / r, r / g) > SIZE_RATIO:
         notes.append(f"the objects are {r:.0f} px (median) in the real frames but {g:.0f} px "
@@ -168,17 +168,24 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
     if inside < 0.75:
         notes.append(f"{100 * (1 - inside):.0f} % of the real objects are outside the "
                      f"generated sizes ({lo:.0f}-{hi:.0f} px)")
-    if max(ga / ra, ra / ga) > ASPECT_RATIO:
-        notes.append(f"the boxes are {ra:.2f} times as tall as wide (median) in the real "
-                     f"frames but {ga:.2f} in the generated ones (a frame of another aspect "
-                     f"than the camera's sensor stretches the objects: give --width and "
-                     f"--height the real frames' aspect)")
+    aspects = {}
+    for k, c in sorted(mapping.items()):
+        ga, ra = data.box_aspects({k}), real.box_aspects({c})
+        if min(ga.size, ra.size) >= ASPECT_MIN_BOXES:
+            aspects[data.names[k - 1]] = (float(np.median(ga)), float(np.median(ra)))
+    off = [f"{name} {ra:.2f} real, {ga:.2f} generated" for name, (ga, ra) in aspects.items()
+           if max(ga / ra, ra / ga) > ASPECT_RATIO]
+    if off:
+        notes.append(f"the boxes' median height / width differs ({'; '.join(off)}): a frame "
+                     f"of another aspect than the camera's sensor stretches the objects; "
+                     f"give --width and --height the real frames' aspect")
     note = "; ".join(notes)
     if note:
         note += (": the detector is scored on sizes and shapes it was not trained on; "
                  "generate at the real frames' altitude, camera and image size")
     return {"generated_median_px": g, "real_median_px": r, "generated_range_px": [lo, hi],
-            "real_inside_range": inside, "generated_aspect": ga, "real_aspect": ra,
+            "real_inside_range": inside,
+            "aspects": {n: {"generated": ga, "real": ra} for n, (ga, ra) in aspects.items()},
             "note": note}
 
 

@@ -88,9 +88,9 @@ def render_markdown(r: dict) -> str:
                   f"real, {s['generated_median_px']:.1f} px generated; "
                   f"{100 * s['real_inside_range']:.0f} % of the real objects within the "
                   f"generated 2-98 % range ({lo:.1f}-{hi:.1f} px)."]
-        if s.get("real_aspect"):  # results before 2026-11-28 have no aspects
-            lines[-1] += (f" Box height / width: median {s['real_aspect']:.2f} real, "
-                          f"{s['generated_aspect']:.2f} generated.")
+        for name, a in s.get("aspects", {}).items():  # results before 2026-11-28: none
+            lines[-1] += (f" Box height / width of {name}: median {a['real']:.2f} real, "
+                          f"{a['generated']:.2f} generated.")
     if s["note"]:
         lines += ["", f"Warning: {s['note']}."]
     lines += ["", "COCO AP (IoU 0.50:0.95), AP50 and AR100 (x 100) by object size (box area: "
