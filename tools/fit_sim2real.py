@@ -41,6 +41,16 @@ STANDIN_SIZE = (640, 360)  #: the stand-in footage's frame, px
 STANDIN_ALTITUDE = (5.0, 9.0)  #: metres
 
 
+def train_geometry(width: int = 384) -> list[str]:
+    """``generate`` flags of a training set (400 images) with the stand-in footage's aspect
+    and pixel sizes at ``width`` px wide: the same lens over a narrower frame, flown lower
+    in proportion."""
+    scale = width / STANDIN_SIZE[0]
+    altitude = f"{STANDIN_ALTITUDE[0] * scale:.2f}-{STANDIN_ALTITUDE[1] * scale:.2f}"
+    return ["--n", "400", "--width", str(width), "--height",
+            str(round(STANDIN_SIZE[1] * scale)), "--altitude", altitude]
+
+
 def run(*args: str) -> None:
     """Run ``sdcomp ARGS`` in this interpreter, failing loudly."""
     subprocess.run([sys.executable, "-m", "sdcomp", *args], check=True)
@@ -90,12 +100,7 @@ def main() -> None:
     if a.refit or not (w / "fitted.toml").exists():
         run("fit", str(w / "footage"), "--labels", str(labels), "--out",
             str(w / "fitted.toml"), *sprites, "-q")
-    # the footage's aspect and pixel sizes: the same lens over a narrower frame, lower
-    scale = a.train_width / STANDIN_SIZE[0]
-    height = round(STANDIN_SIZE[1] * scale)
-    altitude = f"{STANDIN_ALTITUDE[0] * scale:.2f}-{STANDIN_ALTITUDE[1] * scale:.2f}"
-    train = ["--n", "400", "--width", str(a.train_width), "--height", str(height),
-             "--altitude", altitude, "--seed", str(a.train_seed), *sprites, *quiet]
+    train = [*train_geometry(a.train_width), "--seed", str(a.train_seed), *sprites, *quiet]
     if not (w / "defaults" / "dataset.json").exists():
         run("generate", *train, "--out", str(w / "defaults"))
     run("generate", "--config", str(w / "fitted.toml"), *train, "--out", str(w / "fitted"),

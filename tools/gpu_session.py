@@ -38,6 +38,8 @@ import threading
 import time
 from pathlib import Path
 
+from fit_sim2real import train_geometry  # this folder: the same training sets as the CPU's
+
 SDCOMP = [sys.executable, "-m", "sdcomp"]
 MOBILENET = ["--backbone", "mobilenet_v3-fpn", "--weights", "none", "--optimizer", "sgd",
              "--lr", "0.01", "--max-iter", "400", "--batch-size", "4", "--threads", "1"]
@@ -141,9 +143,8 @@ def main() -> None:
     pairs = [tuple(int(x) for x in p.split(":")) for p in a.pair_seeds]
     for standin, train_seed in pairs:
         w = r / "fit" / f"p{standin}"
-        gen = [*SDCOMP, "generate", "--n", "400", "--size", "256", "--altitude", "3-6",
-               "--seed", str(train_seed), "--sprites", a.sprites, "--workers",
-               str(a.workers), "--no-progress", "-q"]
+        gen = [*SDCOMP, "generate", *train_geometry(), "--seed", str(train_seed),
+               "--sprites", a.sprites, "--workers", str(a.workers), "--no-progress", "-q"]
         config = ["--config", str(a.pairs / f"p{standin}" / "fitted.toml")]
         for arm, extra in (("defaults", []), ("fitted", config)):
             if not (w / arm / "dataset.json").exists():  # made by an earlier call
