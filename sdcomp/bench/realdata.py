@@ -41,17 +41,20 @@ class TrainData:
     val: dict = field(default_factory=dict)
     key: str = ""
 
+    def boxes(self, classes: set[int]) -> np.ndarray:
+        """(n, 4) x0, y0, x1, y1 pixels of the training boxes of ``classes``."""
+        out = [b[np.isin(lab, list(classes))] for _, b, lab in self.items]
+        return np.concatenate(out) if out else np.zeros((0, 4))
+
     def box_sides(self, classes: set[int]) -> np.ndarray:
-        """(n,) float64 sqrt(w h) of the training boxes of ``classes``, pixels."""
-        sides = [np.sqrt((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]))[np.isin(lab, list(classes))]
-                 for _, b, lab in self.items]
-        return np.concatenate(sides) if sides else np.zeros(0)
+        """(n,) sqrt(w h) of the training boxes of ``classes``, pixels."""
+        b = self.boxes(classes)
+        return np.sqrt((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]))
 
     def box_aspects(self, classes: set[int]) -> np.ndarray:
-        """(n,) float64 height / width of the training boxes of ``classes``."""
-        out = [((b[:, 3] - b[:, 1]) / np.maximum(b[:, 2] - b[:, 0], 1e-6))[
-            np.isin(lab, list(classes))] for _, b, lab in self.items]
-        return np.concatenate(out) if out else np.zeros(0)
+        """(n,) height / width of the training boxes of ``classes``."""
+        b = self.boxes(classes)
+        return (b[:, 3] - b[:, 1]) / np.maximum(b[:, 2] - b[:, 0], 1e-6)
 
     @property
     def image_size(self) -> int:

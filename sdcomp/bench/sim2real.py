@@ -170,11 +170,13 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
                      f"generated sizes ({lo:.0f}-{hi:.0f} px)")
     aspects = {}
     for k, c in sorted(mapping.items()):
-        ga, ra = data.box_aspects({k}), real.box_aspects({c})
-        if min(ga.size, ra.size) >= ASPECT_MIN_BOXES:
-            aspects[data.names[k - 1]] = (float(np.median(ga)), float(np.median(ra)))
-    off = [f"{name} {ra:.2f} real, {ga:.2f} generated" for name, (ga, ra) in aspects.items()
-           if max(ga / ra, ra / ga) > ASPECT_RATIO]
+        gen_a, real_a = data.box_aspects({k}), real.box_aspects({c})
+        if min(gen_a.size, real_a.size) >= ASPECT_MIN_BOXES:
+            aspects[data.names[k - 1]] = {"generated": float(np.median(gen_a)),
+                                          "real": float(np.median(real_a))}
+    off = [f"{name} {a['real']:.2f} real, {a['generated']:.2f} generated"
+           for name, a in aspects.items()
+           if max(a["generated"] / a["real"], a["real"] / a["generated"]) > ASPECT_RATIO]
     if off:
         notes.append(f"the boxes' median height / width differs ({'; '.join(off)}): a frame "
                      f"of another aspect than the camera's sensor stretches the objects; "
@@ -184,9 +186,7 @@ def _sizes(data: TrainData, real: RealSet, mapping: dict[int, int]) -> dict:
         note += (": the detector is scored on sizes and shapes it was not trained on; "
                  "generate at the real frames' altitude, camera and image size")
     return {"generated_median_px": g, "real_median_px": r, "generated_range_px": [lo, hi],
-            "real_inside_range": inside,
-            "aspects": {n: {"generated": ga, "real": ra} for n, (ga, ra) in aspects.items()},
-            "note": note}
+            "real_inside_range": inside, "aspects": aspects, "note": note}
 
 
 def _detections(model, arrays: list[np.ndarray], device: str) -> list:
