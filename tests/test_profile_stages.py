@@ -23,3 +23,18 @@ def test_profile_times_every_step_of_the_generators_image(sprites_dir):
         assert steps[step] > 0, step
     assert any(k.startswith("  water: ") for k in steps) and cold > 0
     assert usage["user"] > 0 and usage["system"] >= 0 and usage["faults"] >= 0
+
+
+def test_profile_of_a_frame_wider_than_the_drawn_water(sprites_dir):
+    """Frames over BACKGROUND_MAX have their water drawn smaller and magnified, as the
+    compositor does: the profiled image is still the generator's (the tool raises
+    otherwise; it failed in the foam rings or the byte check before)."""
+    from sdcomp.render.compositor import BACKGROUND_MAX
+
+    spec = importlib.util.spec_from_file_location("profile_stages", TOOL)
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    steps, _ = tool.profile(GeneratorConfig(width=BACKGROUND_MAX + 104, height=40), 1,
+                            sprites_dir)
+    assert steps["water (view and draw)"] > 0
