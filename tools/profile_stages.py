@@ -70,12 +70,9 @@ def profile(config: GeneratorConfig, n: int, sprites: str | None,
         tick("scene: draw the scene")
         model = scene.model
         with _threads_for(model):
-            background = comp.background(model)
+            comp.background(model)  # made before the water's clock starts
             water_base.tick()  # the water's sections count from here
-            image, light = background.draw(scene)
-            if background.model != model:  # frames over BACKGROUND_MAX: magnified water
-                image = cv2.resize(image, (model.width, model.height),
-                                   interpolation=cv2.INTER_LINEAR)
+            image, light = comp.draw_background(scene)
             tick("water (view and draw)")
             lit = lighting(scene, light)
             layers = build_layers(scene, lit, comp.assets.sprites, foam_onto=image)

@@ -92,17 +92,24 @@ class Compositor:
             return self._render(scene)
 
     def _render(self, scene: Scene) -> Rendered:
+        image, light = self.draw_background(scene)
+        lit = lighting(scene, light)
+        layers = build_layers(scene, lit, self.assets.sprites, foam_onto=image)
+        composite(image, layers, scene.shadows)
+        image = blur(image, None, scene.defocus_blur)
+        return Rendered(image, layers, light)
+
+    def draw_background(self, scene: Scene) -> tuple[np.ndarray, WaterLight]:
+        """(the background of ``scene`` (H, W, 3) uint8 at the scene's frame size, the
+        objects' light): drawn by :meth:`background` (frames over :data:`BACKGROUND_MAX`
+        drawn small, then magnified)."""
         model = scene.model
         background = self.background(model)
         image, light = background.draw(scene)
         if background.model != model:
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
-        lit = lighting(scene, light)
-        layers = build_layers(scene, lit, self.assets.sprites, foam_onto=image)
-        composite(image, layers, scene.shadows)
-        image = blur(image, None, scene.defocus_blur)
-        return Rendered(image, layers, light)
+        return image, light
 
     def record(self, scene: Scene, image: np.ndarray, instances: np.ndarray,
                amodal: np.ndarray | None = None
