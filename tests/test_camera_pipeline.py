@@ -155,6 +155,33 @@ def test_exposure_and_white_balance_set_by_the_user():
         GeneratorConfig.from_mapping({"sharpening": -1})
 
 
+def test_camera_off_leaves_stages_out_of_a_generated_image(sprites_dir):
+    """--camera-off: the same scene and look draws, the same labels; the stages named do not
+    run (the others' bytes are those of apply_camera without them); names are checked and
+    put in the stages' order."""
+    from sdcomp import Generator, GeneratorConfig
+    from sdcomp.errors import SettingError
+
+    base = GeneratorConfig(width=1280, height=720, clutter=0, look="mavic2pro")
+    off = GeneratorConfig.from_mapping({**base.to_dict(), "camera_off": "Compression, noise"})
+    assert off.camera_off == ("noise", "compression") and base.camera_off == ()
+    a, b = Generator(base, sprites_dir), Generator(off, sprites_dir)
+    fa, fb = a.render(1), b.render(1)
+    assert fb.scene.look == replace(fa.scene.look, off=("noise", "compression"))
+    assert "compression" in fa.camera["stages"]
+    assert fb.camera["stages"] == [s for s in fa.camera["stages"]
+                                   if s not in ("noise", "compression")]
+    assert np.array_equal(fa.instances, fb.instances)
+    assert not np.array_equal(fa.image, fb.image)
+    drawn = b.compositor.render(fb.scene)
+    by_hand = apply_camera(drawn.image, fb.instances, fa.scene.look,
+                           b.compositor.noise_tile(fb.scene.model, fb.scene.seeds.noise_tile),
+                           enabled=fb.camera["stages"])[0]
+    assert np.array_equal(fb.image, by_hand)
+    with pytest.raises(SettingError, match="'blocks' is unknown"):
+        GeneratorConfig(camera_off=("lens", "blocks"))
+
+
 def test_video_quality_comes_from_bits_per_pixel():
     look = sample_look("mavic2pro", np.random.default_rng(0), 416, 416)
     assert (look.native_width, look.native_height) == (3840, 2160)
@@ -194,6 +221,30 @@ def test_one_stage_alone_is_that_stage(frame416):
     out, _, _, info = apply_camera(img, ins, look, None, enabled=["colour"])
     assert info["stages"] == ["colour"]
     assert np.array_equal(out, apply_colour(img, colour_matrix(look.saturation)))
+
+
+def test_stages_the_look_leaves_out_do_not_run(frame416):
+    """A look's ``off`` stages (the user's --camera-off) are left out whatever ``enabled``
+    says; the rest give the bytes of the same stages switched on by hand; an unknown name in
+    ``off`` is refused."""
+    img, ins = frame416
+    tile = make_noise_tile((0,), 416, 416)
+    look = replace(sample_look("phantom4pro", np.random.default_rng(4), 416, 416),
+                   native_width=416, native_height=416, motion_px=5.0)
+    full, _, _, info = apply_camera(img, ins, look, tile)
+    assert {"noise", "compression"} <= set(info["stages"])
+    off = replace(look, off=("noise", "compression"))
+    out, oins, _, info = apply_camera(img, ins, off, tile)
+    assert info["stages"] == [s for s in STAGES if s not in off.off]
+    rest = [s for s in STAGES if s not in off.off]
+    by_hand, hins, _, _ = apply_camera(img, ins, look, tile, enabled=rest)
+    assert np.array_equal(out, by_hand) and np.array_equal(oins, hins)
+    assert not np.array_equal(out, full)
+    out, _, _, info = apply_camera(img, ins, off, tile, enabled=["noise", "colour"])
+    assert info["stages"] == ["colour"]
+    assert CameraLook.from_dict(json.loads(off.to_json())) == off
+    with pytest.raises(ValueError, match="blocks"):
+        apply_camera(img, ins, replace(look, off=("blocks",)), tile)
 
 
 def test_scale_rule_far_from_native_keeps_the_look_only(frame416):

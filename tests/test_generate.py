@@ -483,13 +483,14 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, str | None]]:
         "camera": (["--camera", "nope"], "--camera", None),
         "count3-1": (["--count", "3-1"], "--count", None),
         "workers0": (["--workers", "0"], "--workers", None),
+        "camera-off": (["--camera-off", "lens", "blocks"], "--camera-off", "blocks"),
     }
 
 
 BAD_NAMES = ["n0", "n-5", "alt0", "alt-3", "alt50-10", "water-purple", "water-300", "preset",
              "size0", "width0", "pitch1", "pitch95", "turbidity", "val2", "bg-missing",
              "bg-empty", "bg-corrupt", "object-missing", "config-missing", "config-invalid",
-             "config-unknown", "format-gif", "camera", "count3-1", "workers0"]
+             "config-unknown", "format-gif", "camera", "count3-1", "workers0", "camera-off"]
 
 
 @pytest.mark.parametrize("case", BAD_NAMES)

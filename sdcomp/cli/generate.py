@@ -121,7 +121,7 @@ def add_dataset_options(group: argparse._ArgumentGroup) -> None:
                                default=None, help=f"{text} (default: {default})")
         elif isinstance(default, tuple) and f.name != "sensor_px":
             group.add_argument(flag, dest=f.name, nargs="+", default=None, metavar=metavar,
-                               help=f"{text} (default: {' '.join(map(str, default))})")
+                               help=f"{text} (default: {' '.join(map(str, default)) or 'none'})")
         else:
             shown = default if default is not None else "none"
             group.add_argument(flag, dest=f.name, default=None, metavar=metavar or None,

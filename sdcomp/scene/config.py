@@ -22,7 +22,7 @@ from ..util.log import get_logger
 from .camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .camera import PRESETS as CAMERA_PRESETS
 from .look import PRESETS as LOOK_PRESETS
-from .look import RECORDINGS
+from .look import RECORDINGS, STAGES
 from .objects import (
     CLUTTER_KINDS,
     DEFAULT_CLUTTER_KINDS,
@@ -37,8 +37,8 @@ from .presets import PRESETS, preset
 from .settings import (
     RETIRED,
     check_float,
+    choice_list,
     int_pair,
-    label_formats,
     load_toml,
     names,
     setting,
@@ -219,6 +219,10 @@ class GeneratorConfig:
     motion_blur: float = setting(0.5, "float", "probability of motion blur along the flight",
                                  "P", 0.0, 1.0)
     defocus_blur: float = setting(0.05, "float", "probability of defocus blur", "P", 0.0, 1.0)
+    camera_off: tuple[str, ...] = setting((), "custom", "camera stages to leave out, for "
+                                          f"speed: {', '.join(STAGES)} (compression, "
+                                          "the 4K recording's blocks, is half of a 1920x1080 "
+                                          "image's time; see docs/performance.md)", "STAGE")
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -232,7 +236,9 @@ class GeneratorConfig:
 
     def _check_camera(self) -> None:
         """Output formats and the camera: presets, custom FOV and sensor."""
-        self._put("format", label_formats(self.format, LABEL_FORMATS))
+        self._put("format", choice_list(self.format, "format", LABEL_FORMATS))
+        self._put("camera_off", choice_list(self.camera_off, "camera_off", STAGES,
+                                            empty=True))
         if self.yolo_seg and "yolo" not in self.format:
             raise SettingError("yolo_seg", "{name} writes YOLO polygon labels: add --format "
                                            "yolo (or coco,yolo), or drop {name}")

@@ -55,6 +55,9 @@ PRESETS: dict[str, Preset] = {
                     (3840, 2160), 77.0),
 }
 RECORDINGS = ("video", "photo")
+#: the camera's stages, in the order they run (:mod:`sdcomp.render.camera.pipeline`)
+STAGES = ("motion", "lens", "vignetting", "photometric", "noise", "demosaic", "colour",
+          "sharpen", "compression")
 
 # ----------------------------------------------------------------------------- the table
 
@@ -133,6 +136,7 @@ class CameraLook:
     codec_efficiency: float = 0.0
     jpeg_quality: int = 0
     deblock: float = 0.0
+    off: tuple[str, ...] = ()  # stages left out, for speed (the user's --camera-off)
 
     def to_dict(self) -> dict:
         """The look as a dict of plain JSON values."""
@@ -144,7 +148,9 @@ class CameraLook:
     @classmethod
     def from_dict(cls, d: dict) -> CameraLook:
         names = {f.name for f in fields(cls)}
-        return cls(**{k: v for k, v in d.items() if k in names})
+        values = {k: v for k, v in d.items() if k in names}
+        values["off"] = tuple(values.get("off", ()))
+        return cls(**values)
 
     @property
     def scale(self) -> tuple[float, float]:

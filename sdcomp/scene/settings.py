@@ -150,20 +150,22 @@ def names(v: Any, name: str) -> tuple:
     raise SettingError(name, f"{{name}} {v!r} must be a name or a list of names")
 
 
-def label_formats(v: Any, known: tuple[str, ...]) -> tuple[str, ...]:
-    """The annotation formats of ``--format`` (``coco,yolo`` text or a list) in the order of
-    ``known`` (the canonical one)."""
+def choice_list(v: Any, name: str, known: tuple[str, ...], *, empty: bool = False
+                ) -> tuple[str, ...]:
+    """A list-valued field of names from ``known`` (``a,b`` text, a list, or a list of such
+    texts; case-insensitive) in the order of ``known`` (the canonical one), each once.
+    SettingError names the bad value; an empty list only when ``empty``."""
     items = [v] if isinstance(v, str) else list(v) if isinstance(v, (list, tuple)) else None
     every = ", ".join(known)
     if items is None or not all(isinstance(x, str) for x in items):
-        raise SettingError("format", f"{{name}} {v!r} must be one or more of {every}")
+        raise SettingError(name, f"{{name}} {v!r} must be one or more of {every}")
     found = [x.strip().lower() for item in items for x in item.split(",") if x.strip()]
-    for name in found:
-        if name not in known:
-            raise SettingError("format", f"{{name}} {name!r} is unknown; use {every} (comma-"
-                                         f"separated for several)")
-    if not found:
-        raise SettingError("format", f"{{name}} needs at least one of {every}")
+    for item in found:
+        if item not in known:
+            raise SettingError(name, f"{{name}} {item!r} is unknown; use {every} (comma-"
+                                     f"separated for several)")
+    if not found and not empty:
+        raise SettingError(name, f"{{name}} needs at least one of {every}")
     return tuple(f for f in known if f in found)
 
 

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ...scene.look import CameraLook
+from ...scene.look import STAGES, CameraLook
 from ..effects import blur
 from .codec import block_compress, unsharp
 from .lens import lens_maps
@@ -65,8 +65,6 @@ from .sensor import DEMOSAIC_SIGMA, apply_lut_noise, demosaic, noise_window, sig
 
 HUGE_SIDE = 8192  # pixels: larger frames get the point-wise stages only, in place
 HUGE_BAND_PIXELS = 1 << 22  # huge frames are processed in bands of about this many pixels
-STAGES = ("motion", "lens", "vignetting", "photometric", "noise", "demosaic", "colour",
-          "sharpen", "compression")
 #: below these a stage is skipped (output units)
 THRESHOLDS = {
     "motion_px": 0.5,  # motion blur length, output px
@@ -98,7 +96,7 @@ def apply_camera(image: np.ndarray, instances: np.ndarray, look: CameraLook,
             (:func:`~sdcomp.render.camera.sensor.make_noise_tile`), or None (no noise).
         amodal: optional (N, H, W) bool per-object full masks.
         enabled: the stages to run (names in :data:`STAGES`; default all): switches for
-            speed.
+            speed. The look's ``off`` stages never run.
         timings: if a dict, seconds spent per step are added to it (keys: stage names,
             ``labels`` for the instance/amodal remap, ``tables`` for building the tables).
 
@@ -157,9 +155,10 @@ class _Run:
         if instances.shape != (h, w):
             raise ValueError(f"instances {instances.shape} do not match the image {(h, w)}")
         on = set(STAGES if enabled is None else enabled)
-        unknown = on - set(STAGES)
+        unknown = (on | set(look.off)) - set(STAGES)
         if unknown:
             raise ValueError(f"unknown stages {sorted(unknown)}; use {', '.join(STAGES)}")
+        on -= set(look.off)
         sx, sy = look.scale
         ran: list[str] = []
         info: dict = {"stages": ran, "scale": (sx, sy), "zoom": 1.0, "exposure_gain": 1.0,
