@@ -24,7 +24,7 @@ def _rate(benchmark, fn, rounds: int, frames: int) -> float:
 
 
 @pytest.mark.parametrize("size,sequences,frames", [((416, 416), 4, 30),
-                                                   ((1920, 1080), 2, 4)])
+                                                   ((1920, 1080), 2, 4)], ids=["416", "1080"])
 def test_bench_video_to_disk(benchmark, machine, sprites_dir, tmp_path, size, sequences,
                              frames):
     w, h = size
