@@ -185,7 +185,8 @@ STAGE_ROWS = (
     ("glitter", "of it, the sun's glitter", ("  water: glitter",)),
     ("objects", "the objects' layers, foam, shadows and compositing", ("objects:",)),
     ("camera", "the camera (every stage, the labels' remap)", ("camera:",)),
-    ("lens", "of it, the lens (remap, maps, labels)", ("camera: lens", "camera: labels")),
+    ("lens", "of it, the lens (remap, maps, labels)", ("camera: lens", "camera: lens_maps",
+                                                     "camera: labels")),
     ("compression", "of it, the 4K recording's compression", ("camera: compression",)),
 )
 
