@@ -4,22 +4,12 @@ profile."""
 from __future__ import annotations
 
 import ast
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
+from .tools import load_tool
+
 ROOT = Path(__file__).resolve().parent.parent
-TOOL = ROOT / "tools" / "figures.py"
-
-
-def _tool():
-    spec = importlib.util.spec_from_file_location("figures_tool", TOOL)
-    assert spec is not None and spec.loader is not None
-    tool = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = tool  # its dataclasses look their module up while it loads
-    spec.loader.exec_module(tool)
-    return tool
 
 
 def _benchmark_names() -> set[str]:
@@ -38,7 +28,7 @@ def _benchmark_names() -> set[str]:
 
 
 def test_every_benchmark_row_names_a_benchmark():
-    tool = _tool()
+    tool = load_tool("figures")
     names = _benchmark_names()
     assert "test_bench_disk_1080_two_workers[default]" in names
     for row in tool.BENCH_ROWS:
@@ -46,7 +36,7 @@ def test_every_benchmark_row_names_a_benchmark():
 
 
 def test_rows_are_read_from_a_benchmark_json(tmp_path):
-    tool = _tool()
+    tool = load_tool("figures")
     path = tmp_path / "bench.json"
     path.write_text(json.dumps({"datetime": "2026-11-28T14:00:00", "benchmarks": [
         {"name": "test_bench_disk_1080_two_workers[default]",
@@ -65,7 +55,7 @@ def test_rows_are_read_from_a_benchmark_json(tmp_path):
 
 
 def test_stage_rows_sum_the_profiles_steps(sprites_dir):
-    tool = _tool()
+    tool = load_tool("figures")
     found = {f.key: f.value for f in tool.stage_figures(((96, 64),), 2, sprites_dir)}
     parts = ("water", "glitter", "objects", "camera", "lens", "compression")
     assert set(found) == {f"stage-96-{p}-ms" for p in ("whole", *parts)}
@@ -76,4 +66,4 @@ def test_stage_rows_sum_the_profiles_steps(sprites_dir):
     assert found["stage-96-glitter-ms"] <= found["stage-96-water-ms"]
     assert found["stage-96-lens-ms"] + found["stage-96-compression-ms"] <= found[
         "stage-96-camera-ms"]
-    assert "profile_stages" in sys.modules  # the tool's own profile, not a copy
+    assert tool.profile.__module__ == "profile_stages"  # the tool's own profile, not a copy

@@ -2,19 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 from sdcomp import GeneratorConfig
 
-TOOL = Path(__file__).resolve().parent.parent / "tools" / "profile_stages.py"
+from .tools import load_tool
 
 
 def test_profile_times_every_step_of_the_generators_image(sprites_dir):
-    spec = importlib.util.spec_from_file_location("profile_stages", TOOL)
-    assert spec is not None and spec.loader is not None
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    tool = load_tool("profile_stages")
     # the tool checks its first image against Generator.render's (it raises otherwise)
     usage: dict = {}
     steps, cold = tool.profile(GeneratorConfig(width=96, height=64), 2, sprites_dir, usage)
@@ -31,10 +25,7 @@ def test_profile_of_a_frame_wider_than_the_drawn_water(sprites_dir):
     otherwise; it failed in the foam rings or the byte check before)."""
     from sdcomp.render.compositor import BACKGROUND_MAX
 
-    spec = importlib.util.spec_from_file_location("profile_stages", TOOL)
-    assert spec is not None and spec.loader is not None
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    tool = load_tool("profile_stages")
     steps, _ = tool.profile(GeneratorConfig(width=BACKGROUND_MAX + 104, height=40), 1,
                             sprites_dir)
     assert steps["water (view and draw)"] > 0
