@@ -25,6 +25,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
@@ -199,8 +201,6 @@ def _step_in(step: str, names: tuple[str, ...]) -> bool:
 def stage_figures(sizes: tuple[tuple[int, int], ...], n: int, sprites: Path) -> list[Figure]:
     """Milliseconds an image per stage (:data:`STAGE_ROWS`) at each ``(w, h)`` of
     ``sizes``, default config, warm, on one OpenCV thread (tools/profile_stages.py)."""
-    import cv2
-
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     out = []
@@ -258,11 +258,11 @@ def main() -> int:
                    help="only read --benchmarks; time nothing here")
     args = p.parse_args()
     out = Path(args.out)
-    if (warning := busy()) is not None:
-        print(f"warning: {warning}", file=sys.stderr)
     figures = read_table(out)
     found = [f for path in args.benchmarks for f in from_benchmarks(Path(path))]
     if not args.no_measure:
+        if (warning := busy()) is not None:
+            print(f"warning: {warning}", file=sys.stderr)
         sprites = sprites_folder(args.sprites)
         found += measure(args.images, sprites)
         found += stage_figures(((416, 416), (1920, 1080)), args.images, sprites)
