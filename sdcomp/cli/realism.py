@@ -5,6 +5,7 @@ dataset, against the targets and, given them, the user's real frames
     sdcomp realism DIR [--real FRAMES [--real-labels F|DIR] [--real-gsd M | --real-fov DEG]]
                        [--out DIR/realism] [--max-images 500] [--match-gsd] [--cnn]
     sdcomp realism DIR --objects [--real FRAMES --real-labels F|DIR] [--min-size 15]
+                       [--folds 5] [--no-cnn]
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from ..errors import run_cli
 from ..report.realism.markdown import row_text
+from ..report.realism.object_classifier import summary_lines
 from ..report.realism.object_report import fmt, objects_report
 from ..report.realism.objects import MIN_SIZE
 from ..report.realism.patches import METRICS
@@ -70,8 +72,15 @@ def build_parser() -> argparse.ArgumentParser:
                    "around it, shares of dark and bright pixels, height / width, saturation "
                    "and size (image px, px at 1920 wide, metres where the GSD is known), "
                    "summarised per category, generated vs real (--real needs --real-labels "
-                   "then; --match-gsd, --folds, --cnn and --exclude-clutter do not apply); "
-                   "writes objects.md, objects.json, object_crops.png (default: off)")
+                   "then), and with --real the object realism classifier: per category the "
+                   "cross-validated accuracy of a CNN (and of a logistic regression on hand "
+                   "features) telling real crops of the boxes from generated ones (0.5 = "
+                   "indistinguishable); --match-gsd, --cnn and --exclude-clutter do not "
+                   "apply; writes objects.md, objects.json, object_crops.png and "
+                   "object_classifier.png (default: off)")
+    p.add_argument("--no-cnn", action="store_true", help="with --objects --real: only the "
+                   "logistic regression, not the CNN (faster; default: the CNN too, where "
+                   "torch is installed)")
     p.add_argument("--min-size", metavar="PX", type=float, default=MIN_SIZE, help="with "
                    "--objects: leave out boxes with sqrt(w h) below PX image pixels "
                    "(default: %(default)g)")
@@ -111,12 +120,15 @@ def _objects(args, log) -> int:
     """``--objects``: the per-object report, a line per category on the terminal."""
     r = objects_report(args.dataset, args.real, args.out, args.real_labels, args.real_gsd,
                        args.real_fov, args.max_images, args.seed, args.min_size,
-                       log=log.debug)
+                       folds=args.folds, cnn=not args.no_cnn, log=log.debug)
     for kind in ("generated", "real"):
         for cat, row in (r["categories"][kind] or {}).items():
             log.info(f"{kind} {cat} ({row['count']}): " + "; ".join(
                 f"{m} {fmt(m, row[m])}" for m in ("contrast", "dark_share", "bright_share",
                                                    "aspect", "size_px", "size_m")))
+    if r.get("classifier"):
+        for line in summary_lines(r["classifier"]["categories"]):
+            log.info("object classifier: " + line)
     out = Path(args.out) if args.out else Path(args.dataset) / "realism"
     log.info(f"report: {out / 'objects.md'}")
     return 0

@@ -162,8 +162,9 @@ def montage(rows: list[tuple[str, list[Crop]]], title: str, n: int, out_px: int 
         for j, c in enumerate(crops[:n]):
             x = gap + j * (out_px + gap)
             img[y:y + out_px, x:x + out_px] = c.rgb
-            _label(img, c.caption + ("" if c.scaled else " (native)"), (x + 3, y + out_px - 5),
-                   0.35)
+            text = c.caption + ("" if c.scaled else " (native)")
+            if text:
+                _label(img, text, (x + 3, y + out_px - 5), 0.35)
         y += out_px + gap
     return img
 
