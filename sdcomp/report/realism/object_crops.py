@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from .classifier import feature_names, patch_features
-from .objects import BRIGHT_LEVELS, DARK_LEVELS, MIN_SIZE
+from .objects import BRIGHT_LEVELS, DARK_LEVELS, MIN_SIZE, skin_mask, vivid_mask
 from .patches import LUMA
 from .sources import FrameSet, frame_rgb
 
@@ -155,26 +155,6 @@ def collect_crops(frames: FrameSet, rows: list[tuple[int, np.ndarray, str]],
 
 
 # --------------------------------------------------------------------------- features
-
-def skin_mask(rgb: np.ndarray) -> np.ndarray:
-    """(..., ) bool: skin-like pixels of (..., 3) uint8 RGB: YCrCb Cr in [135, 175], Cb in
-    [85, 130] and Y >= 60 (faces, hands and necks in daylight, lit or shaded; dry sand and
-    some orange fabric pass too)."""
-    ycc = cv2.cvtColor(np.ascontiguousarray(rgb.reshape(-1, 1, 3)), cv2.COLOR_RGB2YCrCb)
-    ycc = ycc.reshape(rgb.shape)
-    yy, cr, cb = ycc[..., 0], ycc[..., 1], ycc[..., 2]
-    return (cr >= 135) & (cr <= 175) & (cb >= 85) & (cb <= 130) & (yy >= 60)
-
-
-def vivid_mask(rgb: np.ndarray) -> np.ndarray:
-    """(...,) bool: vivid orange, red and pink pixels of (..., 3) uint8 RGB (life jackets,
-    tubes, canopies): HSV hue at most 34 degrees (red to orange) or at least 320 (pink to
-    red; OpenCV's hue <= 17 or >= 160), saturation >= 0.5, value >= 0.35."""
-    hsv = cv2.cvtColor(np.ascontiguousarray(rgb.reshape(-1, 1, 3)), cv2.COLOR_RGB2HSV)
-    hsv = hsv.reshape(rgb.shape)
-    hue, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
-    return ((hue <= 17) | (hue >= 160)) & (s >= 128) & (v >= 90)
-
 
 def white_mask(rgb: np.ndarray) -> np.ndarray:
     """(...,) bool: white and pale-grey pixels (hulls, foam, splash): every channel >= 170

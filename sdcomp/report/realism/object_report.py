@@ -132,8 +132,11 @@ def fmt(stat: str, row: dict | None) -> str:
         return "-"
     digits = {"size_px": 0, "size_image_px": 0}.get(stat, 2)
     sign = "+" if stat == "contrast" else ""
-    return (f"{row['median']:{sign}.{digits}f} [{row['p10']:{sign}.{digits}f}, "
+    text = (f"{row['median']:{sign}.{digits}f} [{row['p10']:{sign}.{digits}f}, "
             f"{row['p90']:{sign}.{digits}f}]")
+    if "nonzero" in row:
+        text += f"; in {100 * row['nonzero']:.0f} % of boxes"
+    return text
 
 
 def objects_markdown(result: dict) -> str:

@@ -20,7 +20,11 @@ frame), minus every labelled box of the image (the box itself and its neighbours
 - ``size_m``: sqrt(w h) * the GSD at the box centre (metres), NaN where unknown;
 - ``size_image_px``: sqrt(w h) in the image's own pixels (not rescaled: the size to compare
   where the frames are crops at one focal length, e.g. 416 px renders at the focal length of
-  1920 px real frames, for which ``size_px`` would be 1920 / 416 times too large).
+  1920 px real frames, for which ``size_px`` would be 1920 / 416 times too large);
+- ``skin_share``: share of box pixels that are skin-like (:func:`skin_mask`: faces, hands,
+  bare arms and legs);
+- ``vivid_share``: share of box pixels of a saturated orange, red or pink (:func:`vivid_mask`:
+  life jackets, tubes, boards, canopies).
 
 The first three are NaN when fewer than :data:`MIN_SURROUND` surrounding pixels remain, and
 the contrast also when their std is 0. The GSD at a pixel (:func:`sea_gsd`) is the depth,
@@ -34,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
+import cv2
 import numpy as np
 
 from ...render.camera.lens import undistort
@@ -41,10 +46,14 @@ from .patches import luminance, saturation
 
 #: the per-box statistics, in the column order of :func:`box_statistics`
 STATS = ("contrast", "dark_share", "bright_share", "aspect", "saturation", "size_px",
-         "size_m", "size_image_px")
+         "size_m", "size_image_px", "skin_share", "vivid_share")
 UNITS = {"contrast": "surrounding std", "dark_share": "0..1", "bright_share": "0..1",
          "aspect": "h / w", "saturation": "0..1", "size_px": "px at 1920 wide",
-         "size_m": "m", "size_image_px": "image px"}
+         "size_m": "m", "size_image_px": "image px", "skin_share": "0..1",
+         "vivid_share": "0..1"}
+#: the statistics that are shares of a box's pixels: their summaries also say in how many
+#: boxes the share is above zero (e.g. "skin-like pixels in 67 % of the boxes")
+SHARES = ("dark_share", "bright_share", "skin_share", "vivid_share")
 MIN_SIZE = 15.0  #: smallest sqrt(w h) measured, image pixels
 DARK_LEVELS = 25.0  #: a box pixel this many grey levels below the surrounding mean is dark
 BRIGHT_LEVELS = 40.0  #: ... this many above it is bright
@@ -52,6 +61,26 @@ REFERENCE_WIDTH = 1920  #: size_px is sqrt(w h) on a frame this many pixels wide
 MIN_SURROUND = 16  #: fewest surrounding-water pixels for contrast and the shares
 PERCENTILES = (10, 50, 90)
 EDGE_EPS = 1e-3  #: a box edge this close to a whole pixel is on it (pixels)
+
+
+def skin_mask(rgb: np.ndarray) -> np.ndarray:
+    """(...,) bool: skin-like pixels of (..., 3) uint8 RGB: YCrCb Cr in [135, 175], Cb in
+    [85, 130] and Y >= 60 (faces, hands and necks in daylight, lit or shaded; dry sand and
+    some orange fabric pass too)."""
+    ycc = cv2.cvtColor(np.ascontiguousarray(rgb.reshape(-1, 1, 3)), cv2.COLOR_RGB2YCrCb)
+    ycc = ycc.reshape(rgb.shape)
+    yy, cr, cb = ycc[..., 0], ycc[..., 1], ycc[..., 2]
+    return (cr >= 135) & (cr <= 175) & (cb >= 85) & (cb <= 130) & (yy >= 60)
+
+
+def vivid_mask(rgb: np.ndarray) -> np.ndarray:
+    """(...,) bool: vivid orange, red and pink pixels of (..., 3) uint8 RGB (life jackets,
+    tubes, canopies): HSV hue at most 34 degrees (red to orange) or at least 320 (pink to
+    red; OpenCV's hue <= 17 or >= 160), saturation >= 0.5, value >= 0.35."""
+    hsv = cv2.cvtColor(np.ascontiguousarray(rgb.reshape(-1, 1, 3)), cv2.COLOR_RGB2HSV)
+    hsv = hsv.reshape(rgb.shape)
+    hue, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
+    return ((hue <= 17) | (hue >= 160)) & (s >= 128) & (v >= 90)
 
 
 def box_slices(box: Sequence[float], shape: tuple[int, int], grow: float = 0.0
@@ -113,6 +142,7 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
     g = np.broadcast_to(np.asarray(np.nan if gsd is None else gsd, np.float64), (k,))
     y = luminance(rgb)
     s = saturation(rgb)
+    skin, vivid = skin_mask(rgb), vivid_mask(rgb)
     labelled = labelled_mask((h, w), b)
     invalid = None if valid is None else ~np.asarray(valid, bool)
     for i, (bw, bh) in enumerate(b[:, 2:]):
@@ -126,6 +156,8 @@ def box_statistics(rgb: np.ndarray, boxes: np.ndarray | Sequence[Sequence[float]
         out[i, 5] = size * REFERENCE_WIDTH / w
         out[i, 6] = size * g[i] if math.isfinite(g[i]) and g[i] > 0 else np.nan
         out[i, 7] = size
+        out[i, 8] = float(skin[inner].mean())
+        out[i, 9] = float(vivid[inner].mean())
         window = box_slices(b[i], (h, w), grow=max(bw, bh))
         assert window is not None  # it holds the box
         if exclude_others:
@@ -203,7 +235,8 @@ def summarise(values: np.ndarray, categories: Sequence[str]) -> dict[str, dict]:
     Returns:
         {category: {"count": boxes measured, stat: {"median", "p10", "p90", "n"}}} per
         statistic of :data:`STATS`, over its finite values (n of them; NaN when none),
-        categories sorted by name. Percentiles: NumPy's linear interpolation.
+        categories sorted by name; the :data:`SHARES` also ``"nonzero"``, the fraction of
+        those boxes whose share is above zero. Percentiles: NumPy's linear interpolation.
     """
     v = np.asarray(values, np.float64).reshape(-1, len(STATS))
     cats = np.asarray(list(categories), dtype=object)
@@ -221,5 +254,7 @@ def summarise(values: np.ndarray, categories: Sequence[str]) -> dict[str, dict]:
             else:
                 p10 = p50 = p90 = float("nan")
             entry[stat] = {"median": p50, "p10": p10, "p90": p90, "n": int(col.size)}
+            if stat in SHARES:
+                entry[stat]["nonzero"] = float(np.mean(col > 0)) if col.size else float("nan")
         out[name] = entry
     return out
