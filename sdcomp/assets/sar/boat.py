@@ -20,7 +20,7 @@ import numpy as np
 from ..mesh import ColoredMesh
 from ..solids import Painter
 from . import boat_decked, boat_open, palette
-from .common import jitter, pick
+from .common import jitter, pick, rng_for
 
 SUB_TYPES = ("motorboat", "rib", "sailboat", "cabin_cruiser", "rowing", "paddle")
 #: the sub-type of variant ``v`` is ``SUB_TYPE_CYCLE[v % len(SUB_TYPE_CYCLE)]``: weighted as
@@ -170,13 +170,39 @@ _DRAW = {"motorboat": _draw_motorboat, "rib": _draw_rib, "sailboat": _draw_sailb
          "cabin_cruiser": _draw_cabin_cruiser, "rowing": _draw_rowing, "paddle": _draw_paddle}
 
 
+#: people aboard a decked boat: (chance of 0, 1, 2, ... seated people) per sub-type, as
+#: boats out on a lake or coast in summer carry them (leisure boats mostly two or three,
+#: a rescue RIB its crew of one to three)
+ABOARD = {"motorboat": (0.15, 0.25, 0.30, 0.20, 0.10), "rib": (0.0, 0.4, 0.4, 0.2),
+          "cabin_cruiser": (0.3, 0.3, 0.3, 0.1), "sailboat": (0.3, 0.4, 0.3)}
+#: a motor boat without a T-top has a bimini (a canvas sun top over the cockpit) on 3 in 5;
+#: canvas colours weighted as rental and leisure boats show them (navy, white, grey,
+#: black, burgundy, red and the pink of lake rental boats)
+BIMINI_SHARE = 0.6
+BIMINI: tuple[tuple[int, int, int], ...] = (
+    (35, 50, 95), (35, 50, 95), (225, 225, 218), (150, 150, 148), (35, 35, 38),
+    (120, 35, 45), (195, 35, 40), (220, 45, 120), (220, 45, 120),
+)
+
+
 def draw(rng: np.random.Generator, variant: int) -> dict:
-    """The drawn parameters of boat ``variant`` (JSON-able; metres, kg, degrees, sRGB)."""
+    """The drawn parameters of boat ``variant`` (JSON-able; metres, kg, degrees, sRGB).
+
+    The people aboard a decked boat and a motor boat's bimini come from a generator of
+    their own (``boat-aboard``, variant): the hull and its fittings are drawn as before."""
     sub = SUB_TYPE_CYCLE[variant % len(SUB_TYPE_CYCLE)]
     params = {"kind": "boat", "sub_type": sub, **_DRAW[sub](rng)}
     n_crew = {"rowing": int(params.get("rower", False)),
               "paddle": params.get("crew", 0)}.get(sub, 0)
     params["people"] = _draw_crew(rng, n_crew)
+    if sub in ABOARD:
+        aboard = rng_for("boat-aboard", variant)
+        share = np.asarray(ABOARD[sub])
+        params["people"] = _draw_crew(aboard, int(aboard.choice(len(share),
+                                                                 p=share / share.sum())))
+        if sub == "motorboat":
+            top = not params["t_top"] and aboard.random() < BIMINI_SHARE
+            params["bimini"] = _col(aboard, BIMINI, 0.04) if top else None
     return params
 
 

@@ -30,8 +30,11 @@ from ..solids import (
     union,
 )
 from . import palette
+from .boat_open import seated
 from .common import SEG_S, SEG_XS
 from .hull import HullSpec, deck_band, hull_solid, plan_inset, stations
+
+PERSON_KG = 80.0  #: mass of each person aboard, kg (in the waterline's mass balance)
 
 # --------------------------------------------------------------------------- shared parts
 
@@ -80,6 +83,40 @@ def _console(p: Painter, x: float, z: float, width: float, length: float, height
     return [p.paint(body, colour), p.paint(screen_s, glass)]
 
 
+Seat = tuple  # (x, y, z metres, facing +1 or -1, hands: ((x, y, z), (x, y, z)) or None)
+
+
+def crew(p: Painter, people: list[dict], seats: list[Seat]) -> list[m3.Manifold]:
+    """The seated ``people`` on the first of ``seats`` ((x, y, z of the buttocks, facing +1
+    forward or -1 aft, hands (left, right) object-frame points or None for the lap))."""
+    out = []
+    for person, (x, y, z, facing, hands) in zip(people, seats, strict=False):
+        if hands is None:  # on the lap: forward of the hips, either side of the thighs
+            hands = ((x + facing * 0.38, y + 0.15, z + 0.2), (x + facing * 0.38, y - 0.15,
+                                                              z + 0.2))
+        out.append(seated(p, person, (x, y, z), hands, facing))
+    return out
+
+
+def _bimini(p: Painter, spec: HullSpec, u0: float, u1: float, z: float, colour
+            ) -> list[m3.Manifold]:
+    """A bimini over the cockpit between stations ``u0`` and ``u1``: a canvas top ``z``
+    metres up, arched across the beam (faceted: a darker and a lighter side under the sun),
+    on two steel bows from the gunwales."""
+    x0, x1 = spec.x(u0), spec.x(u1)
+    half = min(spec.half_beam(u0), spec.half_beam(u1)) - 0.08
+    slabs = [box_between((x0, -half, z), (x1, half, z + 0.03)),
+             box_between((x0 + 0.04, -0.65 * half, z + 0.10), (x1 - 0.04, 0.65 * half,
+                                                               z + 0.13)),
+             box_between((x0 + 0.08, -0.25 * half, z + 0.15), (x1 - 0.08, 0.25 * half,
+                                                               z + 0.17))]
+    top = m3.Manifold.batch_hull(slabs)
+    bows = [capsule_path([(x, s * half, spec.sheer(u) - 0.05), (x, s * half, z)], 0.02,
+                         SEG_XS) for u, x in ((u0 + 0.02, x0 + 0.1), (u1 - 0.02, x1 - 0.1))
+            for s in (1, -1)]
+    return [p.paint(top, colour), p.paint(union(bows), palette.STEEL)]
+
+
 # --------------------------------------------------------------------------- motor boat
 
 def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
@@ -89,7 +126,8 @@ def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     spec = HullSpec(L, B, D, "v", params["deadrise"], transom=0.86, max_at=0.42,
                     sheer_bow=0.12 + 0.02 * L, bow_rise=0.6, forefoot=0.5)
     outer = hull_solid(spec)
-    wl = waterline_for_mass(outer, params["mass"])
+    people = params.get("people", [])
+    wl = waterline_for_mass(outer, params["mass"] + PERSON_KG * len(people))
     parts = [_hull_paint(p, outer, wl, c["hull"], c["bottom"], params["antifouling"])]
     parts.append(p.paint(deck_band(spec, 0.05, 0.015), c["deck"]))
     style = params["style"]
@@ -101,8 +139,22 @@ def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     solid = union(parts) - p.paint(well, c["sole"])
     extra = []
     x_mid = spec.x(0.45)
+
+    def side(u: float) -> float:  # a seat's offset from the centreline at station u
+        return max(spec.half_beam(u) - 0.42, 0.2)
+
+    aft: list[Seat] = [(spec.x(0.13), s * side(0.13), sole + 0.45, 1, None) for s in (1, -1)]
+    bow: list[Seat] = [(spec.x(0.72), s * side(0.72) * 0.8, sole + 0.4, -1, None)
+                       for s in (1, -1)]
+    seats: list[Seat]
     if style == "console":
-        extra += _console(p, x_mid, sole, 0.75 + 0.03 * L, 0.7 + 0.03 * L, 1.05,
+        c_len = 0.7 + 0.03 * L
+        x_helm = x_mid - c_len / 2 + 0.05
+        helm = [(x_mid - 0.75, 0.0, sole + 0.7, 1, ((x_helm, 0.2, sole + 0.98),
+                                                    (x_helm, -0.2, sole + 0.98)))]
+        seats = helm + aft + bow
+        top_span = (0.2, 0.52)
+        extra += _console(p, x_mid, sole, 0.75 + 0.03 * L, c_len, 1.05,
                           c["console"], palette.GLASS)
         extra.append(p.paint(box_at((0.55, 0.8, 0.7), (x_mid - 0.75, 0, sole + 0.35)),
                              c["cushion"]))
@@ -111,6 +163,8 @@ def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
                             c["canvas"])
     elif style == "bowrider":
         xs = spec.x(0.56)
+        seats = [(xs - 0.5, s * B * 0.27, sole + 0.6, 1, None) for s in (1, -1)] + aft + bow
+        top_span = (0.14, 0.5)
         extra += _windscreen(p, spec, 0.56, D, palette.GLASS)
         extra.append(p.paint(box_at((0.6, 0.55, 0.6), (xs - 0.5, B * 0.27, sole + 0.3)),
                              c["cushion"]))
@@ -121,6 +175,9 @@ def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
         extra.append(p.paint(plan_inset(spec, 0.17, 0.66, 0.84, sole, sole + 0.4),
                              c["cushion"]))
     else:  # cuddy: cabin trunk forward with a sloped screen
+        seats = [(spec.x(0.38), s * side(0.38) * 0.7, sole + 0.45, 1, None)
+                 for s in (1, -1)] + aft
+        top_span = (0.1, 0.46)
         extra += _cabin(p, spec, 0.52, 0.86, D, 0.55 + 0.02 * L, 0.22, c["deck"],
                         palette.GLASS)
         extra.append(p.paint(plan_inset(spec, 0.17, 0.08, 0.2, sole, sole + 0.45),
@@ -131,6 +188,9 @@ def motorboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     for i in range(n_eng):
         y = 0.0 if n_eng == 1 else (0.33 if i == 0 else -0.33)
         extra.append(_outboard(p, x_tr, D - 0.05, 0.0, y, size, c["engine"]))
+    extra += crew(p, people, seats)
+    if params.get("bimini"):
+        extra += _bimini(p, spec, *top_span, sole + 1.85, params["bimini"])
     return union([solid, *extra]), wl
 
 
@@ -175,7 +235,8 @@ def cabin_cruiser(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     spec = HullSpec(L, B, D, "v", params["deadrise"], transom=0.9, max_at=0.45,
                     sheer_bow=0.15 + 0.02 * L, bow_rise=0.6, forefoot=0.5, chine=0.9)
     outer = hull_solid(spec)
-    wl = waterline_for_mass(outer, params["mass"])
+    people = params.get("people", [])
+    wl = waterline_for_mass(outer, params["mass"] + PERSON_KG * len(people))
     parts = [_hull_paint(p, outer, wl, c["hull"], c["bottom"], True),
              p.paint(deck_band(spec, 0.05, 0.015), c["deck"])]
     sole = D - 0.45
@@ -198,6 +259,11 @@ def cabin_cruiser(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     # stern-drive leg under the transom
     extra.append(p.paint(box_between((x_tr - 0.45, -0.1, -0.35), (x_tr + 0.05, 0.1, 0.25)),
                          palette.DARK_GREY))
+    seats = [(spec.x(0.09), s * B * 0.22, sole + 0.45, 1, None) for s in (1, -1)]
+    seats.append((spec.x(0.24), B * 0.25, sole + 0.05, -1, None))
+    if params["flybridge"]:
+        seats.insert(0, (spec.x(0.4), 0.3, D + cab_h + 0.5, 1, None))
+    extra += crew(p, people, seats)
     return union([solid, *extra]), wl
 
 
@@ -218,7 +284,8 @@ def rib(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     tube = _rib_tube(spec, tr, L)
     parts.append(p.paint(tube, c["tubes"]))
     buoyant = union([outer, tube])
-    wl = waterline_for_mass(buoyant, params["mass"])
+    people = params.get("people", [])
+    wl = waterline_for_mass(buoyant, params["mass"] + PERSON_KG * len(people))
     solid = union(parts)
     well = plan_inset(spec, 0.06, 0.03, 0.85, D - 0.3, D + 1.0, n=10)
     solid = solid - p.paint(well, c["sole"])
@@ -227,6 +294,12 @@ def rib(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     extra += _console(p, xm, D - 0.3, 0.55 + 0.03 * L, 0.55 + 0.02 * L, 0.95, c["console"],
                       palette.GLASS)
     extra.append(p.paint(box_at((0.5, 0.5, 0.8), (xm - 0.8, 0, D - 0.3 + 0.4)), c["seat"]))
+    x_helm = xm - (0.55 + 0.02 * L) / 2 + 0.05
+    seats: list[Seat] = [(xm - 0.8, 0.0, D + 0.5, 1, ((x_helm, 0.18, D + 0.62),
+                                                      (x_helm, -0.18, D + 0.62)))]
+    seats += [(spec.x(u), s * (hull_beam / 2 + 0.05), D + 0.15, 1, None)
+              for u, s in ((0.72, 1), (0.3, -1), (0.3, 1))]
+    extra += crew(p, people, seats)
     x_tr = spec.x(0.0)
     if params["a_frame"]:
         legs = [capsule_path([(x_tr + 0.4, s * (hull_beam / 2 - 0.1), D),
@@ -275,7 +348,8 @@ def sailboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     rudder = extrude_y(polygon([(xr - 0.1, 0.1), (xr + 0.25, 0.1), (xr + 0.15, -keel_d * 0.75),
                                 (xr - 0.1, -keel_d * 0.7)]), -0.03, 0.03)
     buoyant = union([outer, fin, rudder])
-    wl = waterline_for_mass(buoyant, params["mass"])
+    people = params.get("people", [])
+    wl = waterline_for_mass(buoyant, params["mass"] + PERSON_KG * len(people))
     parts = [_hull_paint(p, outer, wl, c["hull"], c["bottom"], True),
              p.paint(union([fin, rudder]), c["bottom"]),
              p.paint(deck_band(spec, 0.04, 0.015), c["deck"])]
@@ -284,6 +358,9 @@ def sailboat(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     solid = solid - p.paint(well, c["cockpit"])
     extra = _cabin(p, spec, 0.30, 0.68, D, 0.35 + 0.025 * L, 0.35, c["deck"], c["window"],
                    taper=0.1)
+    bench = max(spec.half_beam(0.15) - 0.45, 0.25)
+    extra += crew(p, people, [(spec.x(0.12), bench, D - 0.05, 1, None),
+                              (spec.x(0.2), -bench, D - 0.05, -1, None)])
     xm = spec.x(0.6)
     mast_top = D + params["mast"]
     extra.append(p.paint(cylinder_z(0.04 + 0.004 * L, D, mast_top, xm, 0.0, SEG_XS), c["mast"]))

@@ -71,7 +71,7 @@ def rowing(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
         person = params["people"][0]
         grips = handles if params["oars"] == "out" else [
             (seat_x - 0.3, s * 0.2, D) for s in (1, -1)]
-        solid = union([solid, _seated(p, person, (seat_x, 0.0, D - 0.17), grips,
+        solid = union([solid, seated(p, person, (seat_x, 0.0, D - 0.17), grips,
                                       facing=-1)])
     return solid, wl
 
@@ -135,7 +135,7 @@ def paddle(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     for k, person in enumerate(people):
         seat = seats[k]
         paddle_kind = "single" if canoe else "double"
-        solid_p = _seated(p, person, seat, None, facing=1,
+        solid_p = seated(p, person, seat, None, facing=1,
                           paddle=(paddle_kind, c["paddle"], k))
         extra.append(solid_p)
     return union([solid, *extra]), wl
@@ -143,7 +143,7 @@ def paddle(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
 
 # --------------------------------------------------------------------------- people aboard
 
-def _seated(p: Painter, person: dict, seat, grips, facing: int,
+def seated(p: Painter, person: dict, seat, grips, facing: int,
             paddle=None) -> m3.Manifold:
     """A seated person on ``seat`` (x, y, z of the buttocks, metres) facing +x (``facing`` 1)
     or -x (-1), hands on ``grips`` (object frame) or holding a paddle."""

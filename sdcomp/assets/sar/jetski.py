@@ -23,7 +23,7 @@ from ..flotation import waterline_for_mass
 from ..mesh import ColoredMesh
 from ..solids import Painter, box_between, capsule, cylinder_x, ellipsoid, hull, union
 from . import palette
-from .common import SEG_S, SEG_XS, jitter, pick
+from .common import SEG_S, SEG_XS, jitter, pick, rng_for
 from .hull import HullSpec, deck_band, hull_solid
 from .person import Body, Outfit, Pose, build_person
 
@@ -50,19 +50,18 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
     primary = jitter(pick(rng, palette.PWC), rng, 0.04)
     trim = jitter(pick(rng, palette.PWC_TRIM), rng, 0.04)
     rider = variant % 2 == 0
+    colours = _colours(rng_for("jetski-colours", variant),
+                       palette.PWC_DECK[variant % len(palette.PWC_DECK)])
     params = {
         "kind": "jetski", "sub_type": sub, "length": _r(rng.uniform(l0, l1)),
         "width": _r(rng.uniform(w0, w1)), "height": _r(rng.uniform(h0, h1)),
         "dry_mass": _r(rng.uniform(m0, m1), 0), "fuel_mass": _r(rng.uniform(20, 60), 0),
         "rider": None,
-        "colours": {"deck": list(primary), "hull": list(pick(rng, (primary, palette.WHITE,
-                                                                    palette.BLACK, trim))),
-                    "trim": list(trim), "seat": list(jitter(pick(rng, (palette.BLACK,
-                                                                       palette.DARK_GREY,
-                                                                       (200, 200, 195))),
-                                                          rng, 0.04)),
-                    "mat": list(palette.DARK_GREY)},
+        "colours": colours,
     }
+    # the draws the colours once made here, kept so the sizes and riders stay the same
+    pick(rng, (primary, palette.WHITE, palette.BLACK, trim))
+    jitter(pick(rng, (palette.BLACK, palette.DARK_GREY, (200, 200, 195))), rng, 0.04)
     if rider:
         params["rider"] = {
             "stature": _r(np.clip(rng.normal(1.74, 0.08), 1.55, 1.95)),
@@ -78,6 +77,19 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
             "lean": _r(rng.uniform(10, 25), 1),
         }
     return params
+
+
+def _colours(rng: np.random.Generator, deck_rgb) -> dict:
+    """The paint of a jet ski of deck colour ``deck_rgb`` (sRGB lists): seen from above,
+    personal watercraft are mostly a white, grey or black deck and hull with one bright
+    accent on the hood, the pod and the side panels (:data:`~.palette.PWC_ACCENT`), a
+    black or grey saddle and dark footwell mats."""
+    deck = jitter(deck_rgb, rng, 0.03)
+    accent = jitter(pick(rng, palette.PWC_ACCENT), rng, 0.04)
+    hull = pick(rng, (deck, deck, palette.WHITE, palette.DARK_GREY, palette.BLACK))
+    seat = jitter(pick(rng, palette.PWC_SEAT), rng, 0.04)
+    return {"deck": list(deck), "hull": list(hull), "trim": list(accent), "seat": list(seat),
+            "mat": list(palette.DARK_GREY)}
 
 
 def _hull_spec(params: dict) -> HullSpec:

@@ -111,6 +111,19 @@ PWC: tuple[RGB, ...] = (
 )
 PWC_TRIM: tuple[RGB, ...] = ((30, 30, 34), (90, 90, 95), (235, 235, 232), (245, 200, 20),
                              (30, 80, 170))
+#: a jet ski's deck and hull seen from above, variant ``v``'s the ``v``-th (a cycle, so
+#: the eight hold the mix exactly): white on half (Sea-Doo, Yamaha), black or dark grey on
+#: three (Kawasaki, performance models), light grey on one
+PWC_DECK: tuple[RGB, ...] = ((236, 236, 232), (32, 32, 35), (236, 236, 232), (205, 207, 208),
+                             (236, 236, 232), (32, 32, 35), (236, 236, 232), (70, 72, 76))
+#: its one bright accent (hood, pod, side panels): the makers' blue, lime, yellow, red,
+#: orange and teal, or a plain black or grey
+PWC_ACCENT: tuple[RGB, ...] = (
+    (30, 80, 170), (30, 80, 170), (140, 200, 40), (240, 200, 20), (200, 30, 35),
+    (240, 110, 30), (20, 140, 150), (32, 32, 35), (120, 122, 126),
+)
+PWC_SEAT: tuple[RGB, ...] = ((28, 28, 30), (28, 28, 30), (28, 28, 30), (55, 57, 60),
+                             (130, 132, 136))
 BLACK = (28, 28, 30)
 DARK_GREY = (55, 57, 60)
 STEEL = (120, 122, 126)

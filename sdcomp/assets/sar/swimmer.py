@@ -16,14 +16,15 @@ The whole body is modelled (the renderer shows submerged parts through the water
 coastal and turbid water leaves little of what lies deeper than a few decimetres). The
 waterline follows the pose (head- or shoulder-referenced), not a buoyancy balance: a swimmer
 holds the head up by effort, a life jacket lifts the chest. Poses are weighted as search-and-
-rescue footage shows people in the water (:data:`POSE_CYCLE`: upright and still, heads and
-shoulders out, on four in five). Outfits, all wet (darker, :data:`WET`): dark wetsuits most,
-shorties, clothes (a person overboard), swimwear; a foam life jacket or an inflated yoke on
-three of twenty; wet hair, mostly dark, or (on two of twenty) a swim cap; a lifeguard's
-rescue tube held across the chest on one of twenty. The mix is what the per-box statistics
-of real SeaDronesSee swimmers ask for (dark heads and shoulders against the water: see
-docs/sar.md): with treading 12 of 20 and bright jackets, tubes or swimwear on 8, the boxes'
-median contrast against their water was -0.8 standard deviations, real -1.88.
+rescue footage shows people in the water (:data:`POSE_CYCLE`: still on seven in ten, upright
+or floating on the back). Outfits, all wet (darker, :data:`WET`): dark wetsuits on nine of
+twenty, shorties and swimwear on four each, clothes (a person overboard) on three; a foam
+life jacket or an inflated yoke on eight of twenty; wet hair, mostly dark, or a swim cap; a
+lifeguard's rescue tube held across the chest on two of twenty. The mix follows what real
+boxes of people in the water show (docs/sar.md): the saturated orange or red of a jacket,
+tube or board in two in five, bare skin (face, hands, arms, legs) in most. The earlier mix
+(dark wetsuits on three in four, jackets on three in twenty) made dark shapes: a detector
+trained on them found the real swimmers in orange jackets and missed most others.
 """
 
 from __future__ import annotations
@@ -42,37 +43,36 @@ from .person import Body, Outfit, Pose, build_person
 POSES = ("tread", "wave", "crawl", "breast", "back", "distress")
 SUB_TYPES = POSES
 #: the pose of variant ``v`` is ``POSE_CYCLE[v % len(POSE_CYCLE)]``: weighted as people in
-#: the water are seen in search-and-rescue footage, mostly upright and still, heads and
-#: shoulders out (waiting to be picked up: treading water 65 %, waving 10 %, in distress
-#: 5 %), a few floating on the back (10 %), the rest swimming (crawl 5 %, breaststroke 5 %)
-POSE_CYCLE = ("tread", "back", "tread", "tread", "wave", "tread", "tread", "crawl", "tread",
-              "tread", "tread", "breast", "tread", "wave", "tread", "distress", "tread",
-              "back", "tread", "tread")
+#: the water are seen in search-and-rescue footage and exercises, mostly still, heads and
+#: shoulders out or floating in a jacket (treading water 45 %, floating on the back 25 %,
+#: waving 10 %, in distress 5 %), the rest swimming (crawl 10 %, breaststroke 5 %)
+POSE_CYCLE = ("tread", "back", "tread", "back", "wave", "tread", "tread", "crawl", "back",
+              "tread", "tread", "breast", "tread", "wave", "back", "distress", "tread",
+              "back", "crawl", "tread")
 #: the poses that swim (under way); the others drift
 SWIMMING = ("crawl", "breast")
 OUTFITS = ("swimwear", "wetsuit", "shorty", "clothes")
 #: the outfit of variant ``v`` is ``OUTFIT_CYCLE[v % len(OUTFIT_CYCLE)]`` (a cycle, like
-#: the poses, so the twenty variants hold the mix exactly): dark full wetsuits three in four
-#: (open-water swimmers, surfers, divers and the volunteers SAR exercises put in the water:
-#: search-and-rescue footage shows dark heads and black suits most), then a shorty and a
-#: person overboard in clothes, one in ten each, and swimwear on one in twenty (a swimmer
-#: doing the crawl)
-OUTFIT_CYCLE = ("wetsuit", "wetsuit", "shorty", "wetsuit", "clothes", "wetsuit", "wetsuit",
-                "swimwear", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "shorty", "wetsuit",
-                "clothes", "wetsuit", "wetsuit", "wetsuit", "wetsuit", "wetsuit")
+#: the poses, so the twenty variants hold the mix exactly): dark full wetsuits on nine
+#: (open-water swimmers, surfers, divers, the volunteers of SAR exercises), a shorty on
+#: four and swimwear on four (arms and legs bare: the skin that most real boxes show),
+#: a person overboard in clothes on three
+OUTFIT_CYCLE = ("wetsuit", "swimwear", "shorty", "wetsuit", "clothes", "wetsuit", "shorty",
+                "swimwear", "wetsuit", "wetsuit", "shorty", "wetsuit", "swimwear", "wetsuit",
+                "clothes", "wetsuit", "shorty", "swimwear", "wetsuit", "clothes")
 #: hair: variant ``v`` has ``HAIR_DRAW[v % len(HAIR_DRAW)]`` (a cycle): wet hair mostly, a
 #: swim cap on two of the twenty variants
 HAIR = ("short", "long", "bald", "cap")
 HAIR_DRAW = ("short", "short", "long", "short", "long", "bald", "long", "cap")
-#: the variants in a life jacket (of each twenty): three in twenty, the two in clothes (a
-#: person overboard from a boat) and one floating on the back (a jacket turns its wearer
-#: face up); search-and-rescue footage shows dark suits most, orange and red jackets on
-#: some
-VESTED = (1, 4, 14)
+#: the variants in a life jacket (of each twenty): eight in twenty, as the saturated orange
+#: and red of a jacket, tube or board shows in two in five real boxes: the five floating on
+#: the back (a jacket turns its wearer face up), the three in clothes (a person overboard
+#: from a boat; one of them on the back) and one treading water
+VESTED = (0, 1, 3, 4, 8, 14, 17, 19)
 #: the variants holding a rescue tube (of each twenty): a lifeguard's foam torpedo buoy,
 #: 1 m long and 15 cm thick, across the chest and under the arms, floating half out of the
 #: water in front of them
-TUBE_HOLDERS = (8,)
+TUBE_HOLDERS = (9, 12)
 TUBE_LENGTH, TUBE_RADIUS = 1.0, 0.075  # metres
 #: wet skin and fabric are darker than dry (water fills the surface's pores and fibres and
 #: cuts its diffuse reflectance; Lekner & Dorf 1988): albedo factor of wet clothing and skin
@@ -116,10 +116,14 @@ def _pose(name: str, rng: np.random.Generator) -> dict:
     feet_pointed = [_dir(rng, (0.2, 0.1, -1), 10), _dir(rng, (0.2, -0.1, -1), 10)]
     p: dict = {"name": name, "head_pitch": 0.0, "head_yaw": 0.0, "roll": 0.0, "flip": False}
     if name in ("tread", "wave"):
-        # upper arms out to the sides and down, forearms sculling sideways at chest height:
-        # the elbows about 0.25 m down, the hands 0.35-0.4 m, half a metre out from the
-        # shoulders (in coastal water, below what the drone sees of them)
-        arms = _sym(rng, (0.10, 0.50, -0.86), (0.45, 0.75, -0.48))
+        # upper arms down and a little out, the forearms either sculling in front of the
+        # chest (the hands 0.3-0.4 m down, within a forearm of the body) or reaching up to
+        # the surface in front (holding on): seen from above, close to the body, not a
+        # starfish of limbs spread half a metre out
+        if rng.random() < 0.5:  # sculling in front of the chest, hands a hand's depth down
+            arms = _sym(rng, (0.35, 0.45, -0.82), (0.85, 0.35, -0.40))
+        else:  # hands at the surface in front, holding on (a jacket's straps, each other)
+            arms = _sym(rng, (0.45, 0.35, -0.82), (0.80, -0.25, 0.55))
         legs = [[_dir(rng, (0.55, 0.25, -0.8)), _dir(rng, (-0.3, 0.15, -0.95))],
                 [_dir(rng, (0.15, -0.25, -0.95)), _dir(rng, (-0.45, -0.1, -0.88))]]
         if name == "wave":
