@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 GRID = PoseGrid(max_off_nadir=40, off_nadir_step=20, max_error=15)
 CONFIG = AtlasConfig(size=24, supersample=2, grid=GRID)
 ARRAYS = {"poses": np.float64, "alpha": np.uint8, "albedo": np.uint8, "normal": np.int8,
-          "height": np.float16}
+          "height": np.float16, "occlusion": np.uint8}
 BG_RGB = (70, 90, 105)
 GRID_FLAGS = ["--size", "24", "--supersample", "2", "--max-off-nadir", "40",
               "--off-nadir-step", "20", "--max-error", "15"]
@@ -115,7 +115,7 @@ def test_npz_holds_exactly_plain_arrays_of_documented_dtypes(atlas, saved):
     assert set(arrays) == set(ARRAYS)
     p, s = len(CONFIG.grid.poses()), CONFIG.size
     shapes = {"poses": (p, 4), "alpha": (p, s, s), "albedo": (p, s, s, 3),
-              "normal": (p, s, s, 3), "height": (p, s, s)}
+              "normal": (p, s, s, 3), "height": (p, s, s), "occlusion": (p, s, s)}
     for k, dtype in ARRAYS.items():
         assert arrays[k].dtype == np.dtype(dtype), k
         assert arrays[k].shape == shapes[k], k

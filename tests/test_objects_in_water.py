@@ -402,30 +402,56 @@ def test_wake_strength_grows_with_speed_and_arms_need_way():
     assert wake_strength(ARM_SPEED * 0.9)[1] == 0.0 < wake_strength(ARM_SPEED * 1.5)[1]
 
 
-def test_wake_lies_behind_with_kelvin_arms_at_19_5_degrees():
-    """A 5 m boat at 8 m/s: the turbulent wake is behind it, nothing ahead; across the wake
-    far behind, the brightest water (the arms) lies where the Kelvin wedge's half-angle
-    asin(1/3) puts it from the bow."""
-    from sdcomp.render.wake import KELVIN_HALF_ANGLE, wake_cover
+def _wake(speed: float, length: float = 5.0, beam: float = 2.0, res: float = 0.1):
+    """(cover, u (w,), v (h,)) of a hull's wake: metres behind its centre and across."""
+    from sdcomp.render.wake import wake_cover
 
-    length, beam, res = 5.0, 2.0, 0.1
-    cover, u0, v0, r = wake_cover(length, beam, 8.0, res, (1,))
+    cover, u0, v0, r = wake_cover(length, beam, speed, res, (1,))
     assert r == pytest.approx(res) and cover.dtype == np.float32
     assert cover.min() >= 0.0 and cover.max() <= 1.0
     h, w = cover.shape
-    u = np.arange(w) * r - u0
-    v = np.arange(h) * r - v0
+    return cover, np.arange(w) * r - u0, np.arange(h) * r - v0
+
+
+def test_wake_lies_behind_with_kelvin_arms_at_19_5_degrees():
+    """A 5 m boat at 3 m/s (displacing: Froude number 0.43): the turbulent wake is behind
+    it, nothing ahead; across the wake behind, the brightest water beside the core (the
+    arms) lies where the Kelvin wedge's half-angle asin(1/3) puts it from the bow."""
+    from sdcomp.render.wake import KELVIN_HALF_ANGLE, wake_cover
+
+    length, beam = 5.0, 2.0
+    cover, u, v = _wake(3.0)
     ahead = cover[:, u < -length / 2 - 0.5]
-    behind = cover[np.abs(v) < beam / 2][:, (u > length) & (u < 3 * length)]
-    assert ahead.max() < 0.02 and behind.mean() > 0.2
+    behind = cover[np.abs(v) < beam / 2][:, (u > length) & (u < 2 * length)]
+    assert ahead.max() < 0.02 and behind.mean() > 0.1
     assert KELVIN_HALF_ANGLE == pytest.approx(19.47, abs=0.01)
-    for dist in (15.0, 25.0):
-        col = int(np.argmin(np.abs(u - dist)))
-        side = cover[:, col].copy()
+    for dist in (8.0, 12.0):
+        cols = np.abs(u - dist) < 0.5  # a metre's band: the foam's breaks average out
+        side = cover[:, cols].mean(axis=1)
         side[np.abs(v) < 2 * beam] = 0  # leave out the turbulent core
         want = (dist + length / 2) * math.tan(math.radians(KELVIN_HALF_ANGLE))
         assert abs(abs(v[int(np.argmax(side))]) - want) < 0.6
-    assert wake_cover(length, beam, 0.1, res, (1,)) is None
+    assert wake_cover(length, beam, 0.1, 0.1, (1,)) is None
+
+
+def test_a_planing_hull_throws_white_water_in_a_narrower_v():
+    """At 10 m/s (planing) the near wake is white water: solid right behind the transom,
+    and beside it, a hull length behind, the whitest water lies at the wing angle from the
+    transom's corners, inside the Kelvin wedge."""
+    from sdcomp.render.wake import KELVIN_HALF_ANGLE, WING_ANGLE
+
+    length, beam = 5.0, 2.0
+    cover, u, v = _wake(10.0)
+    stern = cover[np.abs(v) < beam / 3][:, (u > length / 2) & (u < length)]
+    assert stern.mean() > 0.6
+    dist = 2 * length
+    side = cover[:, np.abs(u - dist) < 0.5].mean(axis=1)
+    side[np.abs(v) < beam] = 0
+    behind = dist - length / 2
+    want = beam / 2 + behind * math.tan(math.radians(WING_ANGLE))
+    kelvin = (dist + length / 2) * math.tan(math.radians(KELVIN_HALF_ANGLE))
+    got = abs(v[int(np.argmax(side))])
+    assert abs(got - want) < 0.8 and got < kelvin - 1.0
 
 
 def test_a_moving_object_leaves_a_wake_and_the_same_mask(gen):

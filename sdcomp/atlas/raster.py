@@ -9,6 +9,7 @@ and put it under water later.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,6 +92,56 @@ def render(mesh: ColoredMesh, off_nadir: float, azimuth: float, *, size: int,
                                xs + 0.5, ys + 0.5)
     return _downsample(covered.reshape(n, n), colours.reshape(n, n, 3),
                        normals.reshape(n, n, 3), heights.reshape(n, n), size, supersample)
+
+
+@dataclass(frozen=True)
+class DepthMap:
+    """An orthographic depth map of a mesh seen from direction ``toward`` (a shadow map):
+    ``depth`` (n, n) float64, the nearest surface's distance along ``toward`` per pixel
+    (larger = nearer the viewer; -inf where no surface is), ``basis`` (3, 3) rows right,
+    up, toward, ``centre`` (3,) the point at the canvas centre, ``pitch`` metres per
+    pixel."""
+
+    depth: np.ndarray
+    basis: np.ndarray
+    centre: np.ndarray
+    pitch: float
+
+    def visible(self, points: np.ndarray, bias: float) -> np.ndarray:
+        """(k,) bool: whether each of (k, 3) ``points`` (the mesh's frame) is seen from
+        ``toward``: outside the map, or no surface nearer than its own depth plus ``bias``
+        metres at its pixel."""
+        n = self.depth.shape[0]
+        cam = (np.asarray(points, np.float64) - self.centre) @ self.basis.T
+        col = np.floor(cam[:, 0] / self.pitch + n / 2.0).astype(np.int64)
+        row = np.floor(-cam[:, 1] / self.pitch + n / 2.0).astype(np.int64)
+        inside = (col >= 0) & (col < n) & (row >= 0) & (row < n)
+        surface = np.full(len(cam), -np.inf)
+        surface[inside] = self.depth[row[inside], col[inside]]
+        return cam[:, 2] + bias >= surface
+
+
+def depth_map(mesh: ColoredMesh, toward: np.ndarray, pitch: float, n: int,
+              centre: np.ndarray) -> DepthMap:
+    """The :class:`DepthMap` of ``mesh`` (its own frame) seen from the unit direction
+    ``toward`` (3,), ``n`` x ``n`` pixels of ``pitch`` metres centred on ``centre``: the
+    rasteriser's z-buffer (front faces of a closed mesh, every face of an open one), one
+    sample per pixel."""
+    t = np.asarray(toward, np.float64)
+    off = math.degrees(math.acos(float(np.clip(t[2], -1.0, 1.0))))
+    basis = view_basis(off, math.degrees(math.atan2(float(t[1]), float(t[0]))))
+    cam = (np.asarray(mesh.vertices, np.float64) - centre) @ basis.T
+    sx, sy, depth = cam[:, 0] / pitch + n / 2.0, -cam[:, 1] / pitch + n / 2.0, cam[:, 2]
+    normals = _face_normals(np.asarray(mesh.vertices, np.float64), mesh.faces) @ basis.T
+    keep = normals[:, 2] > 1e-9 if mesh.closed else np.abs(normals[:, 2]) > 1e-9
+    key = _zbuffer(sx, sy, depth, mesh.faces[keep], n)
+    out = np.full(n * n, -np.inf)
+    hit = key != _EMPTY
+    if len(depth):
+        dmax = float(depth.max())
+        scale = (2**30) / max(float(depth.max() - depth.min()), 1e-12)
+        out[hit] = dmax - (key[hit] >> 32).astype(np.float64) / scale
+    return DepthMap(out.reshape(n, n), basis, np.asarray(centre, np.float64), float(pitch))
 
 
 def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -5,6 +5,9 @@ A :class:`SpriteSource` wraps an :class:`~sdcomp.atlas.Atlas`. For pose ``p`` an
 
     alpha, alpha * albedo (linear RGB, 3), alpha * normal (camera frame, 3), alpha * height
 
+(the albedo times the occlusion's diffuse factor, :func:`sdcomp.atlas.occlusion.diffuse_factor`:
+the light a point in a cockpit or under a canopy does not get)
+
 box-filtered from the atlas resolution, so that any level can be relit and then resampled
 without dark fringes. Levels are made on first use and kept: the small ones (what a
 416-pixel image needs) per source; the large ones (levels 0 and 1, for full-resolution
@@ -23,6 +26,7 @@ import cv2
 import numpy as np
 
 from ..util.colour import srgb_to_linear
+from .occlusion import diffuse_factor
 from .poses import view_basis, view_direction
 from .store import Atlas
 
@@ -145,6 +149,7 @@ class SpriteSource:
         alpha, albedo_srgb, normal, height = self.atlas.channels(pose)
         alpha = np.ascontiguousarray(alpha, dtype=np.float32)
         albedo = cv2.LUT(np.ascontiguousarray(albedo_srgb), self._lut)  # linear RGB
+        albedo *= diffuse_factor(self.atlas.occlusion_of(pose))[..., None]
         out: np.ndarray = cv2.merge([alpha, albedo, np.ascontiguousarray(normal, np.float32),
                                      np.ascontiguousarray(height, np.float32)])
         np.multiply(out, alpha[..., None], out=out)

@@ -9,7 +9,8 @@ waterline, so that the renderer can scale, relight and submerge the sprite later
   ``alpha`` (P, S, S) uint8 coverage x 255 (rounded; > 0 exactly where any sub-pixel is hit);
   ``albedo`` (P, S, S, 3) uint8 sRGB; ``normal`` (P, S, S, 3) int8 unit normal x 127 in the
   camera frame (x right, y up, z towards the camera); ``height`` (P, S, S) float16 metres
-  above the waterline.
+  above the waterline; ``occlusion`` (P, S, S) uint8 the share of the sky each pixel's
+  surface sees x 255 (:mod:`sdcomp.atlas.occlusion`; 255 where empty).
 - ``<out>/<name>.json``: the index (format version, mesh name and hash, metres per pixel,
   grid and render parameters, pose angles, checksum of the npz), written last.
 - ``<out>/<name>_sheet.png``: contact sheet of all poses (:mod:`sdcomp.atlas.sheet`).
@@ -39,11 +40,12 @@ from ..util.files import atomic_path, atomic_write_bytes
 from ..util.heap import keep_freed_memory
 from ..util.pool import imap_ordered
 from ..util.progress import Progress
+from .occlusion import sky_maps, sprite_occlusion
 from .poses import PoseGrid, nearest_pose
 from .raster import Sprite, render
 
 FORMAT = "sdcomp-atlas"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the occlusion channel
 DEFAULT_OUT = None  # the user's atlas folder: sdcomp.atlas.cache.sprites_folder
 
 
@@ -130,6 +132,15 @@ class Atlas:
         return self._full("height")
 
     @property
+    def occlusion(self) -> np.ndarray:
+        """(P, S, S) float32 ambient occlusion in [0, 1] (1: sees the whole sky)."""
+        return self._full("occlusion")
+
+    def occlusion_of(self, i: int) -> np.ndarray:
+        """(S, S) float32 ambient occlusion of pose ``i`` (:attr:`occlusion`'s values)."""
+        return _DECODE["occlusion"](self.encoded["occlusion"][i])
+
+    @property
     def mask(self) -> np.ndarray:
         """(P, S, S) bool: exactly the pixels with non-zero coverage."""
         return self.encoded["alpha"] > 0
@@ -158,6 +169,7 @@ _DECODE = {
     "alpha": lambda a: a.astype(np.float32) / np.float32(255.0),
     "normal": lambda a: a.astype(np.float32) / np.float32(127.0),
     "height": lambda a: a.astype(np.float32),
+    "occlusion": lambda a: a.astype(np.float32) / np.float32(255.0),
 }
 
 
@@ -199,14 +211,19 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
         sprites.append(sprite)
         bar.update()
     bar.close()
-    encoded = _encode(poses, *(np.stack([getattr(s, k) for s in sprites])
-                               for k in ("alpha", "albedo", "normal", "height")))
+    maps = sky_maps(mesh)
+    occlusion = np.stack([sprite_occlusion(sp, float(pose[0]), float(pose[1]), mpp,
+                                           float(mesh.waterline), maps)
+                          for sp, pose in zip(sprites, poses, strict=True)])
+    alpha, albedo, normal, height = (np.stack([getattr(s, k) for s in sprites])
+                                     for k in ("alpha", "albedo", "normal", "height"))
+    encoded = _encode(poses, alpha, albedo, normal, height, occlusion)
     index = _index(mesh, config, mpp, poses)
     return Atlas(mesh.name, encoded, float(index["metres_per_pixel"]), index)
 
 
 def _encode(poses: np.ndarray, alpha: np.ndarray, albedo: np.ndarray, normal: np.ndarray,
-            height: np.ndarray) -> dict[str, np.ndarray]:
+            height: np.ndarray, occlusion: np.ndarray) -> dict[str, np.ndarray]:
     """The on-disk arrays (see the module docstring) from stacked (P, S, S, ...) arrays.
 
     Encoding decoded arrays again gives the same bytes: saving a loaded atlas is lossless.
@@ -218,6 +235,7 @@ def _encode(poses: np.ndarray, alpha: np.ndarray, albedo: np.ndarray, normal: np
         "albedo": albedo.astype(np.uint8),
         "normal": np.rint(normal * 127).astype(np.int8),
         "height": height.astype(np.float16),
+        "occlusion": np.clip(np.rint(occlusion * 255), 0, 255).astype(np.uint8),
     }
 
 
@@ -348,7 +366,8 @@ def load_atlas(path: str | Path, verify: bool = True) -> Atlas:
         if not isinstance(data, np.lib.npyio.NpzFile):  # a bare .npy array, not an archive
             raise ValueError("not an npz archive")
         with data:
-            arrays = {k: data[k] for k in ("poses", "alpha", "albedo", "normal", "height")}
+            arrays = {k: data[k] for k in ("poses", "alpha", "albedo", "normal", "height",
+                                           "occlusion")}
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, zlib.error,
             NotImplementedError) as exc:
         raise AtlasError(f"atlas data {str(npz)!r} cannot be read ({exc}): {how}") from None
@@ -360,7 +379,7 @@ def _check_arrays(arrays: dict, index: dict, npz: Path, how: str) -> None:
     p, s = len(index["poses"]), int(index["size_px"])  # fields checked by read_index
     want = {"poses": ((p, 4), np.float64), "alpha": ((p, s, s), np.uint8),
             "albedo": ((p, s, s, 3), np.uint8), "normal": ((p, s, s, 3), np.int8),
-            "height": ((p, s, s), np.float16)}
+            "height": ((p, s, s), np.float16), "occlusion": ((p, s, s), np.uint8)}
     for k, (shape, dtype) in want.items():
         a = arrays[k]
         if a.shape != shape or a.dtype != dtype:

@@ -15,8 +15,41 @@ BAND_PIXELS = 1 << 18  # layers are blended in bands of rows of about this many 
 NO_COLOUR = np.zeros((0, 0, 3), np.float32)  # a drawn layer's colour, released
 
 
+MAX_SLICES = 16  #: height slices of an extruded shadow (one per pixel of its length, at most)
+
+
+def extruded(alpha: np.ndarray, height: np.ndarray | None, step: tuple[float, float]
+             ) -> tuple[np.ndarray, int, int]:
+    """(coverage (h', w') float32, dx, dy) of the shadow a layer casts on the water: its
+    coverage ``alpha`` (h, w) with every pixel's column of ``height`` / alpha metres above
+    the water (``height`` (h, w) float32, premultiplied; None: flat) laid along ``step``
+    (frame pixels per metre up): the union of the slices at or above each height, each moved
+    by its height (at most :data:`MAX_SLICES`), on a canvas whose pixel (0, 0) is the
+    layer's pixel (dx, dy) (dx, dy <= 0)."""
+    if height is None or not (step[0] or step[1]):
+        return alpha, 0, 0
+    h = np.divide(height, alpha, out=np.zeros_like(height), where=alpha > 1e-3)
+    top = float(h.max()) if h.size else 0.0
+    sx, sy = top * step[0], top * step[1]
+    length = math.hypot(sx, sy)
+    if length < 0.5:
+        return alpha, 0, 0
+    k = min(int(math.ceil(length)), MAX_SLICES)
+    px, py = int(math.ceil(abs(sx))), int(math.ceil(abs(sy)))
+    rows, cols = alpha.shape
+    out = np.zeros((rows + 2 * py, cols + 2 * px), np.float32)
+    for j in range(k + 1):
+        z = top * j / k
+        part = alpha if j == 0 else np.where(h >= z - 1e-6, alpha, 0.0).astype(np.float32)
+        ox, oy = px + int(round(z * step[0])), py + int(round(z * step[1]))
+        view = out[oy:oy + rows, ox:ox + cols]
+        np.maximum(view, part, out=view)
+    return out, -px, -py
+
+
 def cast_shadow(image: np.ndarray, layer: Layer) -> None:
-    """Darken the background under ``layer``'s shadow (in place): the shadow takes
+    """Darken the background under ``layer``'s shadow (in place; its coverage
+    :func:`extruded` by the heights above the water): the shadow takes
     ``shadow_strength`` of the linear light, so sRGB levels keep ``(1 - s a)**(1 / 2.2)``
     (``a`` the shadow's blurred coverage, quantised to 256 steps: one table look-up and one
     multiply per pixel). Wide blurs are made on a copy reduced by an integer factor (sigma
@@ -30,7 +63,9 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     sigma = layer.shadow_blur
     f = max(1, int(sigma // SHADOW_BLUR_WORK))
     pad = -(-(int(math.ceil(2 * sigma)) + 1) // f) * f  # a multiple of f
-    a8 = cv2.convertScaleAbs(layer.alpha, alpha=255.0)
+    cover, dx, dy = extruded(layer.alpha, layer.shadow_height, layer.shadow_step)
+    x0, y0 = x0 + dx, y0 + dy
+    a8 = cv2.convertScaleAbs(cover, alpha=255.0)
     if f > 1:
         a8 = cv2.resize(a8, (-(-a8.shape[1] // f), -(-a8.shape[0] // f)),
                         interpolation=cv2.INTER_AREA)
@@ -64,14 +99,27 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
 
 def over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:
     """Composite ``layer`` over ``image`` (band by band of rows of :data:`BAND_PIXELS`: no
-    float copy of a large region) and reduce the weights of the layers it covers."""
+    float copy of a large region) and reduce the weights of the layers it covers.
+
+    ``image (1 - alpha) + colour``, and where the layer lies under the water (its weight
+    below its coverage) the water in front of it is the image's own: ``+ (alpha - weight)
+    (image - water)``, ``water`` the layer's modelled water (:attr:`Layer.water_srgb`). A
+    limb deep in the water so takes on the waves, glints and colour of the water drawn
+    around it (the user's footage too) instead of the model's flat water colour."""
     x0, y0, x1, y1 = layer.roi
     rows = max(1, BAND_PIXELS // max(x1 - x0, 1))
+    water = (None if layer.water_srgb is None
+             else np.asarray(layer.water_srgb, np.float32))
     for a in range(0, y1 - y0, rows):
         b = min(a + rows, y1 - y0)
         region = image[y0 + a:y0 + b, x0:x1]
-        out = region.astype(np.float32) * (1.0 - layer.alpha[a:b])[..., None]
+        bg = region.astype(np.float32)
+        out = bg * (1.0 - layer.alpha[a:b])[..., None]
         out += layer.colour[a:b]
+        if water is not None:
+            wet = layer.alpha[a:b] - layer.weight[a:b]
+            if float(wet.max()) > 1e-3:
+                out += np.maximum(wet, 0.0)[..., None] * (bg - water)
         region[:] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
     for other in below:
         ox0, oy0, ox1, oy1 = other.roi

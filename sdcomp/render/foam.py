@@ -34,6 +34,11 @@ RING_FULL_M = 1.5
 #: waterline froths with :data:`SPLASH_PEAK` coverage, slower in proportion
 SPLASH_SPEED = 1.0
 SPLASH_PEAK = 0.35
+#: a swimmer at rest who treads water (:func:`sdcomp.scene.objects.stirring` 1) ringed by
+#: disturbed, lighter water this wide and strong: the kicks and sculling break the surface
+#: into small ripples and bubbles around the head and shoulders
+STIR_WIDTH = 0.35  # metres
+STIR_PEAK = 0.22
 
 
 @dataclass(frozen=True)
@@ -92,18 +97,19 @@ def ring_strength(wind: float) -> float:
 
 
 def contact_foam(alpha: np.ndarray, depth: np.ndarray, pitch_m: float, strength: float,
-                 seed: tuple[int, ...]) -> tuple[int, np.ndarray] | None:
+                 seed: tuple[int, ...], width_m: float = RING_WIDTH
+                 ) -> tuple[int, np.ndarray] | None:
     """(pad, coverage (n + 2 pad, n + 2 pad) float32) of the foam ring of a sprite of
     coverage ``alpha`` (n, n) whose pixels lie ``depth`` (n, n) metres under the water
     (negative: above), ``pitch_m`` metres per pixel; the canvas is the sprite's padded by
     ``pad`` pixels on each side. The ring: the hull's pixels at the waterline (within
     :data:`RING_EDGE` of the water, dry next to wet, or on the outline of a wall standing
     less than :data:`RING_WALL` out of the water; never the outline of a submerged part),
-    dilated by :data:`RING_WIDTH`, softened,
+    dilated by ``width_m`` (:data:`RING_WIDTH`), softened,
     broken into patches of :data:`FOAM_BUBBLES` (a smooth random field of ``seed``), scaled
     to ``strength``. None when no ring is drawn (no hull at the water: standing clear of it
     or wholly under it; or the band narrower than :data:`RING_MIN_PX`)."""
-    width = RING_WIDTH / pitch_m
+    width = width_m / pitch_m
     if width < RING_MIN_PX or strength <= 0:
         return None
     body = alpha > 0.5

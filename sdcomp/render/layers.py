@@ -1,11 +1,12 @@
 """Layers: every floating object of a scene as an atlas sprite placed, lit and submerged.
 
-For each placement: the stored pose nearest to the view of the (tilted) body
-(:func:`sprite_view`), the camera's projection linearised at the object (scale, rotation,
-foreshortening: a 2x3 affine map from sprite to image pixels), the mip level suited to that
-scale, the sprite's colour lit by the sun, the sky and the sea with the parts under a wavy
-waterline seen through the water (:func:`shade`), its weight for the mask rule, and its shadow
-in the water (:func:`shadow`). The derivations are in docs/architecture.md.
+For each placement: where its sprite lands in the frame (:mod:`.sprite_view`: pose, mip
+level, the affine map from sprite to image pixels), the sprite's colour lit by the sun, the
+sky and the sea with the parts under a wavy waterline seen through the water
+(:func:`shade`), its weight for the mask rule, its shadow in the water (:func:`shadow`: as
+long as the object is tall, :func:`shadow_step`) and the foam it makes on the water (contact
+foam, a swimmer's stirred water, splash, wake). The derivations are in
+docs/architecture.md.
 """
 
 from __future__ import annotations
@@ -17,13 +18,16 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..atlas.poses import tilt_matrix
 from ..atlas.sprites import SpriteSource
-from ..scene.camera import CameraModel, local_projection
+from ..scene.camera import CameraModel
+from ..scene.objects import stirring
 from ..scene.scene import Placement, Role, Scene
 from ..util.colour import linear_to_srgb
 from .foam import (
     FOAM_ALBEDO,
+    RING_WIDTH,
+    STIR_PEAK,
+    STIR_WIDTH,
     FoamRing,
     contact_foam,
     draw_ring,
@@ -33,6 +37,7 @@ from .foam import (
 )
 from .gloss import add_gloss, roughness
 from .lighting import Lighting, irradiance_terms, lambert
+from .sprite_view import SpriteView, canvas_placement, sprite_view, tilted_heights
 from .submerge import (
     BLUR_PER_METRE,
     LUMA,
@@ -69,110 +74,15 @@ class Layer:
     shadow_strength: float  # fraction of the light the shadow takes away
     shadow_blur: float  # pixels (Gaussian sigma)
     full_area: float = 0.0  # pixels: the whole projected silhouette, inside the frame or not
-
-
-@dataclass(frozen=True)
-class SpriteView:
-    """Where and how a placement's sprite lands in the frame (see :func:`sprite_view`)."""
-
-    pose: int  # index of the atlas pose
-    level: int  # mip level
-    rot: np.ndarray  # (3, 3) body -> world rotation (heading and tilt)
-    basis: np.ndarray  # (3, 3) rows right, up, toward of the pose in the body frame
-    towards_camera: np.ndarray  # (3,) unit vector from the object to the camera, world
-    centre: tuple[float, float]  # the body origin's image position, pixels
-    depth: float  # metres along the optical axis
-    jac: np.ndarray  # (2, 3) image pixels per world metre at the object
-    to_frame: np.ndarray  # (2, 3) float64 sprite pixels -> frame pixels
-    affine: np.ndarray  # (2, 3) float32 sprite pixels -> roi pixels
-    roi: tuple[int, int, int, int]  # x0, y0, x1, y1 pixels, inside the frame
-
-
-def body_rotation(pl: Placement) -> np.ndarray:
-    """(3, 3) rotation from the placement's body frame to the world: heading, then tilt."""
-    hd = math.radians(pl.heading)
-    rz = np.array([[math.cos(hd), -math.sin(hd), 0], [math.sin(hd), math.cos(hd), 0],
-                   [0, 0, 1]])
-    return rz @ tilt_matrix(pl.roll, pl.pitch)
-
-
-def sprite_view(model: CameraModel, lit: Lighting, camera: np.ndarray, pl: Placement,
-                src: SpriteSource) -> SpriteView | None:
-    """The view of placement ``pl`` from the camera at ``camera`` (3,) metres: None when it
-    is behind the camera or outside the frame."""
-    rot = body_rotation(pl)
-    origin = np.array([pl.x, pl.y, -pl.draft]) - src.waterline * rot[:, 2]
-    to_cam = camera - origin
-    d_world = to_cam / math.sqrt(float(to_cam @ to_cam))
-    pose_i = src.nearest(d_world @ rot)  # rot.T @ d_world
-    vb = src.bases[pose_i]  # rows right, up, toward in the body frame
-    proj = local_projection(model, lit.basis, -to_cam)
-    if proj is None:
-        return None
-    u0, v0, z, jac = proj
-    # (2, 2): image pixels per sprite pixel along the sprite's right and down
-    a = (jac @ rot) @ (vb[:2].T * np.array([src.metres_per_pixel,
-                                            -src.metres_per_pixel]))
-    scale = math.sqrt(abs(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
-    if scale <= 0:
-        return None
-    level = min(max(math.floor(math.log2(1.0 / scale)), 0), src.max_level) \
-        if scale < 1 else 0
-    n = src.size >> level
-    (a00, a01), (a10, a11) = (a * (1 << level)).tolist()
-    c = 0.5 - n / 2
-    tx, ty = u0 - 0.5 + (a00 + a01) * c, v0 - 0.5 + (a10 + a11) * c
-    to_frame = np.array([[a00, a01, tx], [a10, a11, ty]])
-    placed = canvas_placement(to_frame, n, 0, model)
-    if placed is None:
-        return None
-    affine, roi = placed
-    return SpriteView(pose_i, level, rot, vb, d_world, (u0, v0), z, jac, to_frame, affine,
-                      roi)
-
-
-def canvas_placement(to_frame: np.ndarray, n: int, pad: int, model: CameraModel
-                     ) -> tuple[np.ndarray, tuple[int, int, int, int]] | None:
-    """(affine (2, 3) float32 canvas pixels -> roi pixels, roi (x0, y0, x1, y1) inside the
-    frame) of an (n + 2 pad)-pixel square canvas whose pixel ``pad`` is the sprite's pixel 0
-    (``to_frame``: sprite pixels -> frame pixels); None when it misses the frame."""
-    (a00, a01, tx), (a10, a11, ty) = to_frame.tolist()
-    tx, ty = tx - (a00 + a01) * pad, ty - (a10 + a11) * pad
-    # the canvas's corners (-0.5 and n + 2 pad - 0.5 in each direction) in the frame
-    lo, hi = -0.5, n + 2 * pad - 0.5
-    xs = [a00 * p + a01 * q + tx for p in (lo, hi) for q in (lo, hi)]
-    ys = [a10 * p + a11 * q + ty for p in (lo, hi) for q in (lo, hi)]
-    x0 = max(math.floor(min(xs)), 0)
-    y0 = max(math.floor(min(ys)), 0)
-    x1 = min(math.ceil(max(xs)) + 1, model.width)
-    y1 = min(math.ceil(max(ys)) + 1, model.height)
-    if x1 <= x0 or y1 <= y0:
-        return None
-    return (np.array([[a00, a01, tx - x0], [a10, a11, ty - y0]], np.float32),
-            (x0, y0, x1, y1))
-
-
-def tilted_heights(height: np.ndarray, vb: np.ndarray, src: SpriteSource, level: int,
-                   row: np.ndarray) -> np.ndarray:
-    """(n, n) float32 heights above the sea of the body tilted by the placement's roll and
-    pitch, from the level body's ``height`` (n, n) float32 of a sprite of mip ``level``;
-    ``vb`` (3, 3) is the pose's basis (rows right, up, toward, body frame) and ``row`` (3,)
-    the last row of the body's rotation. Linear in (x, y, h): ``h * k + plane(x, y)``
-    (derivation in docs/architecture.md; uncovered pixels get a height too, unused)."""
-    n = height.shape[0]
-    pitch_m = src.metres_per_pixel * (1 << level)
-    c = (np.arange(n, dtype=np.float32) + np.float32(0.5 - n / 2)) * np.float32(pitch_m)
-    wl = src.waterline
-    r_, u_, t_ = vb
-    k = float(t_ @ row) / max(float(t_[2]), 1e-3)
-    kx = float(r_ @ row) - k * float(r_[2])
-    ky = float(u_ @ row) - k * float(u_[2])
-    const = k * wl - wl * float(row[2])
-    # x = c along columns, y = -c along rows
-    tilted = height * np.float32(k)
-    tilted += (c * np.float32(kx))[None, :]
-    tilted += (c * np.float32(-ky) + np.float32(const))[:, None]
-    return tilted
+    #: (h, w) float32 coverage times metres above the water (what casts the shadow's
+    #: length), or None: the shadow is the silhouette alone
+    shadow_height: np.ndarray | None = None
+    shadow_step: tuple[float, float] = (0.0, 0.0)  # pixels the shadow moves per metre up
+    #: sRGB levels (0..255, 3) of the water at the object as the renderer models it (deep
+    #: water's light and the surface's reflection, exposed): what a submerged part's
+    #: colour holds of water, replaced by the actual background where it is drawn
+    #: (:func:`sdcomp.render.composite.over`); None: nothing to replace
+    water_srgb: tuple[float, float, float] | None = None
 
 
 def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView,
@@ -222,6 +132,23 @@ def shade(out: np.ndarray, prepared: tuple, height: np.ndarray, view: SpriteView
     return depth
 
 
+def water_srgb(scene: Scene, pl: Placement, lit: Lighting, column: WaterColumn
+               ) -> tuple[float, float, float]:
+    """sRGB levels (0..255) of the water at placement ``pl`` as :func:`shade` models it
+    (its deep water's light and the surface's reflected sky, hazed and exposed): what the
+    colour of a part deep under the surface tends to."""
+    params, water = scene.water, lit.water
+    lin = np.asarray(column.deep, np.float64) + np.asarray(column.reflection, np.float64)
+    haze = math.exp(-float(np.linalg.norm(scene.camera.position - np.array([pl.x, pl.y, 0.0])))
+                    / params.visibility)
+    if haze < 0.999:
+        lin = lin * haze + np.asarray(water.sky.horizon_rgb, np.float64) * (1.0 - haze)
+    lin = lin * float(water.gain)
+    srgb = linear_to_srgb(lin.reshape(1, 1, 3).astype(np.float32)).reshape(3) * 255.0
+    r, g, b = (float(v) for v in srgb)
+    return r, g, b
+
+
 def slope_sd(wind: float) -> float:
     """Standard deviation of the sea's slope along one axis at ``wind`` m/s (Cox & Munk
     1954, clean surface: mean square slope 0.003 + 0.00512 U)."""
@@ -261,12 +188,25 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
     sw = column.sun_dir
     sun_h = max(math.hypot(float(sw[0]), float(sw[1])), 1e-9)
     drift = z * sun_h / max(float(sw[2]), 0.05)  # metres: horizontal shift at depth z
-    spread = 0.3 * z + 0.5 * drift
+    spread = 0.15 * z + 0.25 * drift  # sharp near the surface: most light comes from there
     off = view.jac @ np.array([-sw[0] / sun_h * drift, -sw[1] / sun_h * drift,
                                -z / N_WATER])
     strength = share * from_water * size_m / (size_m + spread)
     blur = max(spread * model.fx / view.depth, 0.0)
     return (float(off[0]), float(off[1])), float(strength), blur
+
+
+def shadow_step(view: SpriteView, lit: Lighting) -> tuple[float, float]:
+    """(dx, dy) frame pixels from a point's image to the image of the shadow it casts on
+    the water, per metre of the point's height above it: the sun's ray through a point
+    ``h`` metres up meets the water ``h / tan(elevation)`` metres away from the sun, ``h``
+    lower (both seen through the camera's projection at the object, ``view.jac``); (0, 0)
+    with the sun at or below 5 degrees."""
+    s = np.asarray(lit.sun, np.float64)
+    if s[2] <= math.sin(math.radians(5.0)):
+        return 0.0, 0.0
+    d = view.jac @ (-s / s[2])  # a point h up and its shadow: h (s / s_z) apart
+    return float(d[0]), float(d[1])
 
 
 def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scene: Scene,
@@ -281,11 +221,13 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     if pl.roll or pl.pitch:
         height = tilted_heights(height, view.basis, src, view.level, view.rot[2])
     pitch_m = src.metres_per_pixel * (1 << view.level)
-    # channels: premultiplied sRGB colour (3), coverage, weight
-    stack = np.empty(prepared[0].shape + (5,), np.float32)
+    # channels: premultiplied sRGB colour (3), coverage, weight, coverage x metres above
+    # the water (the shadow's caster)
+    stack = np.empty(prepared[0].shape + (6,), np.float32)
     stack[..., 3] = prepared[0]
     depth = shade(stack, prepared, height, view, pl, scene, lit, column, pitch_m,
                   (scene.water.seed, i))
+    np.multiply(prepared[0], np.maximum(-depth, 0.0), out=stack[..., 5])
     stack = refract(stack, depth, (view.basis @ view.rot.T)[:, 2], pitch_m)
     x0, y0, x1, y1 = view.roi
     warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
@@ -302,7 +244,8 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     # the silhouette as the surface shows it (refracted), inside the frame or not
     full = float(stack[..., 3].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
     layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
-                  warped[..., 3], warped[..., 4], offset, strength, blur, full)
+                  warped[..., 3], warped[..., 4], offset, strength, blur, full,
+                  warped[..., 5], shadow_step(view, lit), water_srgb(scene, pl, lit, column))
     foam = [foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column),
             wake_foam(i, pl, view, size_m, src.waterline, scene, lit, column)]
     return layer, [f for f in foam if f is not None]
@@ -316,10 +259,15 @@ def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
     splash of one moving through the water (:func:`splash_strength`), whichever is
     stronger; lit like the water's surface, placed in the frame; None when there is
     none."""
+    pl = scene.placements[i]
     dry_m = math.sqrt(float(np.count_nonzero((alpha >= 0.5) & (depth < 0.0)))) * pitch_m
     strength = max(ring_strength(scene.water.wind) * ring_share(dry_m),
-                   splash_strength(scene.placements[i].speed))
-    ring = contact_foam(alpha, depth, pitch_m, strength, (scene.water.seed, i))
+                   splash_strength(pl.speed))
+    stir = STIR_PEAK * stirring(pl.asset) if pl.speed <= 0 else 0.0
+    width = RING_WIDTH
+    if stir > strength:  # a swimmer treading water: a wider ring of disturbed water
+        strength, width = stir, STIR_WIDTH
+    ring = contact_foam(alpha, depth, pitch_m, strength, (scene.water.seed, i), width)
     if ring is None:
         return None
     pad, cover = ring

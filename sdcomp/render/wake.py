@@ -29,17 +29,54 @@ ARM_SECONDS = 5.0  # s: the Kelvin arms' visible length, in seconds of travel
 SPEED_MIN = 0.3  # m/s: slower objects leave no visible wake
 ARM_SPEED = 1.5  # m/s: the Kelvin arms show from this speed on
 FOAM_SPEED = 8.0  # m/s: the turbulent wake is fully white from this speed on
+PLANE_FROM = 4.0  # m/s: below this a hull displaces water (Kelvin's wedge)
+PLANE_SPEED = 8.0  # m/s: a hull planes from about this speed on (its wake white water)
+WING_ANGLE = 12.0  # degrees: half-angle of a planing hull's white water either side
+WING_LENGTHS = 2.5  # hull lengths over which that white water fades
+FOAM_SECONDS = 2.5  # s: the white water behind a hull breaks up over about this long
+SCAR = 0.15  # of the peak: the smooth, lighter scar the wake leaves for WAKE_SECONDS
 RASTER_MAX = 1024  # pixels: the wake raster's longer side at most
 
 
 def wake_strength(speed: float) -> tuple[float, float]:
     """(peak coverage of the turbulent wake, of the Kelvin arms) at ``speed`` m/s: a faint
-    streak just above :data:`SPEED_MIN`, white water near :data:`FOAM_SPEED`."""
+    streak just above :data:`SPEED_MIN`, white water near :data:`FOAM_SPEED` (a planing hull's
+    prop wash is all foam)."""
     if speed < SPEED_MIN:
         return 0.0, 0.0
-    core = min(0.15 + 0.6 * (speed - SPEED_MIN) / (FOAM_SPEED - SPEED_MIN), 0.75)
+    core = min(0.15 + 0.8 * (speed - SPEED_MIN) / (FOAM_SPEED - SPEED_MIN), 0.95)
     arms = 0.0 if speed < ARM_SPEED else min(0.1 + 0.05 * (speed - ARM_SPEED), 0.45)
     return core, arms
+
+
+def planing(speed: float) -> float:
+    """0 (displacement speeds, up to :data:`PLANE_FROM`) to 1 (a hull planing at
+    :data:`PLANE_SPEED` and over): how much of the near wake is the churned white water of a
+    planing hull, whose visible wake is narrower than Kelvin's wedge (Rabaud & Moisy 2013:
+    the angle falls as 1 / Froude number at high speed)."""
+    return float(np.clip((speed - PLANE_FROM) / (PLANE_SPEED - PLANE_FROM), 0.0, 1.0))
+
+
+def foam_texture(shape: tuple[int, int], res: float, seed: tuple[int, ...]) -> np.ndarray:
+    """(h, w) float32 zero-mean, unit-std turbulent foam field of a raster of ``res`` metres
+    per pixel (columns along the track): white noise blurred at three scales, 0.1, 0.35 and
+    1.2 m across the track and three times that along it (foam is drawn out into streaks
+    behind a hull), the finer scales weighted more (a broken, bubbly surface)."""
+    h, w = shape
+    rng = np.random.default_rng([*seed, 0x3A4E])
+    field = np.zeros((h, w), np.float32)
+    for scale_m, weight in ((0.1, 1.0), (0.35, 0.8), (1.2, 0.6)):
+        sv = scale_m / res
+        f = max(1, int(sv // 4))  # blur wide scales on a reduced grid
+        hh, ww = -(-h // f), -(-w // f)
+        noise = rng.standard_normal((hh, ww)).astype(np.float32)
+        blurred = cv2.GaussianBlur(noise, (0, 0), sigmaX=max(3 * sv / f, 0.5),
+                                   sigmaY=max(sv / f, 0.5))
+        if f > 1:
+            blurred = cv2.resize(blurred, (ww * f, hh * f), interpolation=cv2.INTER_LINEAR)
+        blurred = blurred[:h, :w]
+        field += np.float32(weight) * (blurred / np.float32(max(float(blurred.std()), 1e-6)))
+    return field / np.float32(max(float(field.std()), 1e-6))
 
 
 def wake_extent(length: float, beam: float, speed: float) -> tuple[float, float]:
@@ -57,22 +94,39 @@ def wake_cover(length: float, beam: float, speed: float, res: float,
     raster: ((h, w) float32 in [0, 1], u0, v0, res) where raster pixel (row j, column i) covers
     the water at ``u = i res - u0`` metres behind the object's centre and ``v = j res - v0``
     across its track (``res`` metres per pixel, raised so the raster's longer side is at
-    most :data:`RASTER_MAX`); broken into patches by a smooth random field of ``seed``.
-    None when there is no visible wake."""
+    most :data:`RASTER_MAX`). None when there is no visible wake.
+
+    Three parts: the turbulent wake from the stern, flat-topped across (ragged edges),
+    widening and fading with age; for a planing hull (:func:`planing`) two bands of white
+    water from the transom's corners diverging at :data:`WING_ANGLE` over the first
+    :data:`WING_LENGTHS` hull lengths; the Kelvin arms from the bow at the cusp angle. All
+    are foam broken by :func:`foam_texture`: solid near the hull, falling apart into
+    streaks and patches as it ages."""
     core, arms = wake_strength(speed)
     if core <= 0.0:
         return None
+    plane = planing(speed)
     back, side = wake_extent(length, beam, speed)
     front = length / 2 + beam
     res = max(res, (back + front) / RASTER_MAX, 2 * side / RASTER_MAX)
     w, h = int(math.ceil((back + front) / res)) + 1, int(math.ceil(2 * side / res)) + 1
     u = (np.arange(w, dtype=np.float32) * res - front)[None, :]
     v = (np.arange(h, dtype=np.float32) * res - side)[:, None]
-    # turbulent wake: from the stern, half-width growing from half the beam, fading with age
-    behind = u - length / 2
-    half = beam / 2 + 0.03 * np.maximum(behind, 0.0)
-    age = np.maximum(behind, 0.0) / max(WAKE_SECONDS * speed, 1e-6)
-    cover = np.where(behind > 0, np.exp(-(v / half) ** 2) * np.exp(-3.0 * age), 0.0) * core
+    behind = np.maximum(u - length / 2, 0.0)
+    seconds = behind / max(speed, 1e-6)  # since the stern passed
+    half = beam * (0.45 + 0.25 * plane) + 0.04 * behind
+    across = np.where(u > length / 2, np.exp(-(v / half) ** 4), 0.0)
+    # white water that breaks up in seconds, then a faint smooth scar that lasts
+    white = across * np.exp(-seconds / FOAM_SECONDS) * core
+    scar = across * np.exp(-3.0 * seconds / WAKE_SECONDS) * (SCAR * core)
+    if plane > 0:
+        # the stern's white water thrown out either side at the wing angle
+        off = np.abs(v) - (beam / 2 + behind * math.tan(math.radians(WING_ANGLE)))
+        width = 0.2 * beam + 0.05 * behind
+        reach = WING_LENGTHS * length
+        wing = np.exp(-(off / width) ** 2) * np.exp(-behind / reach)
+        white = np.maximum(white, np.where(u > length / 2, wing, 0.0) * (0.9 * plane))
+    cover = white
     if arms > 0:
         # the Kelvin arms: from the bow, at the cusp angle either side of the track
         along = u + length / 2
@@ -81,14 +135,11 @@ def wake_cover(length: float, beam: float, speed: float, res: float,
         width = 0.15 * beam + 0.02 * np.maximum(along, 0.0)
         line = np.exp(-(off / width) ** 2) * np.exp(-2.0 * np.maximum(along, 0) / reach)
         cover = np.maximum(cover, np.where(along > 0, line, 0.0) * arms)
-    cover = cover.astype(np.float32)
-    rng = np.random.default_rng([*seed, 0x3A4E])
-    cell = max(1, int(round(0.3 / res)))  # foam patches about 0.3 m across
-    coarse = rng.standard_normal((h // cell + 2, w // cell + 2)).astype(np.float32)
-    field = np.asarray(cv2.resize(coarse, (coarse.shape[1] * cell, coarse.shape[0] * cell),
-                                  interpolation=cv2.INTER_LINEAR)[:h, :w], np.float32)
-    field /= np.float32(max(float(field.std()), 1e-6))
-    cover = (cover * np.clip(0.55 + 0.45 * field, 0.0, 1.0)).astype(np.float32)
+    field = foam_texture((h, w), res, seed)
+    # young foam is solid, old foam breaks up into streaks: the threshold rises with age
+    age = np.minimum(seconds / FOAM_SECONDS, 2.0)
+    broken = np.clip(1.0 + 0.5 * field - 0.45 * age, 0.0, 1.0)
+    cover = np.maximum(cover * broken, scar).astype(np.float32)
     return np.minimum(cover, 1.0), front, side, res
 
 

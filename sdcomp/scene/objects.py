@@ -322,6 +322,14 @@ def asset_kind(asset: str) -> str:
     return library.kind_of(name) or name
 
 
+def coco_categories(objects) -> list[dict]:
+    """COCO categories of ``objects`` (:class:`ObjectSpec` s): ids from 1 in their order,
+    supercategories as SeaDronesSee's for its kinds, else "object"."""
+    return [{"id": i + 1, "name": o.category,
+             "supercategory": SUPERCATEGORIES.get(object_kind(o.mesh) or "", "object")}
+            for i, o in enumerate(objects)]
+
+
 def under_way(asset: str) -> tuple[float, float, float]:
     """(chance of being under way, slowest, fastest m/s) of the object or clutter drawn
     from ``asset`` (:data:`UNDER_WAY` by its kind; (0, 0, 0) for kinds that do not
@@ -331,6 +339,29 @@ def under_way(asset: str) -> tuple[float, float, float]:
     if kind == "swimmer" and not _swimming(name):
         return (0.0, 0.0, 0.0)  # treading, waving, floating: drifting, not swimming
     return UNDER_WAY.get(kind, (0.0, 0.0, 0.0))
+
+
+#: how much a body at rest stirs the water around it (0-1, by swimmer pose): a swimmer
+#: treading water, waving or in distress kicks and sculls all the time, one floating on
+#: the back hardly moves; the swimming poses travel instead (:func:`under_way`)
+STIR = {"tread": 1.0, "wave": 1.0, "distress": 1.0, "back": 0.4}
+
+
+def stirring(asset: str) -> float:
+    """0-1: how much the object or clutter drawn from ``asset`` stirs the water around it
+    at rest (:data:`STIR` by a swimmer variant's pose; 0 for everything else)."""
+    name = asset.removeprefix(CLUTTER_PREFIX)
+    if asset_kind(asset) != "swimmer":
+        return 0.0
+    parsed = sar.parse_name(name)
+    return STIR.get(_pose_of(name), 0.0) if parsed is not None else 0.0
+
+
+@functools.cache
+def _pose_of(name: str) -> str:
+    """The pose (sub-type) of swimmer variant ``name``."""
+    parsed = sar.parse_name(name)
+    return sar.describe_variant(*parsed)["sub_type"] if parsed is not None else ""
 
 
 @functools.cache
