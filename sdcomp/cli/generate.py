@@ -155,6 +155,11 @@ def config_from_args(args: argparse.Namespace) -> GeneratorConfig:
             raise UserError(f"--size {args.size} is out of range: use 1 to 32000 pixels")
         given.setdefault("width", args.size)
         given.setdefault("height", args.size)
+    if given.get("camera", "custom") != "custom":
+        # a camera named by flag replaces a preset's (or config file's) custom one: its
+        # field of view and sensor, unless given too
+        given.setdefault("fov", None)
+        given.setdefault("sensor_px", None)
     return GeneratorConfig.from_mapping(given, config, "flags")
 
 

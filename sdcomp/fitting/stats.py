@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from ..report.realism.patches import image_maps, maps_patch_stats, to_patches
+from ..util.noise import patch_noise
 
 #: the statistics matched, in report order
 STATS = ("luminance", "saturation", "highpass_std", "glint_fraction", "chroma_r", "chroma_b",
@@ -48,7 +49,6 @@ UNITS = {"luminance": "0-255", "saturation": "0-1", "highpass_std": "levels",
          "vignetting": "0-1", "noise_slope": "levels^2/level"}
 BLOCK_FLOOR = 1.0  #: levels added to the inside step of :func:`blockiness`
 HIGHLIGHT_SHARE = 0.01  #: ``highlight_*`` is the colour of this brightest share of pixels
-_LAPLACE = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 
 def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None,
@@ -66,7 +66,7 @@ def image_stats(rgb: np.ndarray, keep: np.ndarray | None = None,
     rgb_mean = pixels.mean(axis=1)
     chroma = rgb_mean / np.maximum(rgb_mean.sum(axis=1, keepdims=True), 1e-6)
     high = highlight_chroma(pixels.reshape(-1, 3), to_patches(maps.y)[sel].reshape(-1))
-    noise = _patch_noise(maps.y)[sel]
+    noise = patch_noise(maps.y)[sel]
     fine = to_patches(maps.y - cv2.blur(maps.y, (3, 3), borderType=cv2.BORDER_REFLECT_101)
                       )[sel].reshape(noise.size, -1).std(axis=1)
     sharp = fine / np.maximum(ps["highpass_std"], 1e-3)
@@ -98,15 +98,6 @@ def highlight_chroma(rgb: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     total = rgb[top].sum(axis=0, dtype=np.float64)
     s = float(total.sum())
     return (float(total[0] / s), float(total[2] / s)) if s > 0 else (math.nan, math.nan)
-
-
-def _patch_noise(y: np.ndarray) -> np.ndarray:
-    """(n,) float64 Immerkaer noise estimate (8-bit levels) of each grid patch of the (H, W)
-    float32 luma ``y``."""
-    r = np.abs(cv2.filter2D(y, -1, _LAPLACE, borderType=cv2.BORDER_REFLECT_101))
-    p = to_patches(r)
-    return p.reshape(p.shape[0], -1).mean(axis=1, dtype=np.float64) * math.sqrt(
-        math.pi / 2) / 6.0
 
 
 def _noise_slope(lum: np.ndarray, noise: np.ndarray) -> float:

@@ -38,11 +38,17 @@ class Background:
 
     def draw(self, scene: Scene) -> tuple[np.ndarray, WaterLight]:
         """(image (H, W, 3) uint8 sRGB at this background's size, the objects' light)."""
+        image, light, _ = self.draw_scaled(scene)
+        return image, light
+
+    def draw_scaled(self, scene: Scene) -> tuple[np.ndarray, WaterLight, float | None]:
+        """:meth:`draw`'s (image, light) and, over a photo, its magnification (output pixels
+        per pixel of the frame it was cut from; None for procedural water)."""
         model, pose = self.model, scene.camera
         view = view_water(model, pose, scene.water, self.textures.water)
         if self.photos is not None:
-            photo = self.photos.pick(scene.seeds.photo, model.width, model.height)
-            return photo, photo_light(photo, view.light, scene.water.exposure_target)
+            photo, mag = self.photos.pick_scaled(scene.seeds.photo, model.width, model.height)
+            return photo, photo_light(photo, view.light, scene.water.exposure_target), mag
         image, _ = draw_water(view, self.textures.water,
                               glint="sparkles" if scene.glitter else "mean")
         if scene.shore is not None:
@@ -50,7 +56,7 @@ class Background:
                      scene.seeds.land)
         if scene.hills is not None:
             add_hills(image, model, pose, scene.hills, view.light, scene.water.visibility)
-        return image, view.light
+        return image, view.light, None
 
 
 def photo_light(photo: np.ndarray, light: WaterLight, target: float) -> WaterLight:

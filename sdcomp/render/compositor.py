@@ -36,6 +36,7 @@ from .camera import apply_camera
 from .camera.sensor import make_noise_tile
 from .composite import composite
 from .effects import blur
+from .harmonise import footage_camera, harmonise
 from .layers import Layer, build_layers
 from .lighting import lighting
 from .photos import Backgrounds
@@ -92,10 +93,15 @@ class Compositor:
             return self._render(scene)
 
     def _render(self, scene: Scene) -> Rendered:
-        image, light = self.draw_background(scene)
+        image, light, magnified = self.draw_background_scaled(scene)
+        # over the user's footage: its camera, measured before anything is drawn on it
+        footage = (footage_camera(image, magnified, scene.footage_blur)
+                   if magnified is not None and scene.footage_blur is not None else None)
         lit = lighting(scene, light)
         layers = build_layers(scene, lit, self.assets.sprites, foam_onto=image)
         composite(image, layers, scene.shadows)
+        if footage is not None:
+            harmonise(image, layers, footage, scene.seeds.photo)
         image = blur(image, None, scene.defocus_blur)
         return Rendered(image, layers, light)
 
@@ -103,13 +109,22 @@ class Compositor:
         """(the background of ``scene`` (H, W, 3) uint8 at the scene's frame size, the
         objects' light): drawn by :meth:`background` (frames over :data:`BACKGROUND_MAX`
         drawn small, then magnified)."""
+        image, light, _ = self.draw_background_scaled(scene)
+        return image, light
+
+    def draw_background_scaled(self, scene: Scene
+                               ) -> tuple[np.ndarray, WaterLight, float | None]:
+        """:meth:`draw_background`'s (image, light) and, over the user's footage, the
+        photo's magnification (output pixels per frame pixel; None for procedural water)."""
         model = scene.model
         background = self.background(model)
-        image, light = background.draw(scene)
+        image, light, magnified = background.draw_scaled(scene)
         if background.model != model:
+            scale = model.width / background.model.width
             image = cv2.resize(image, (model.width, model.height),
                                interpolation=cv2.INTER_LINEAR)
-        return image, light
+            magnified = None if magnified is None else magnified * scale
+        return image, light, magnified
 
     def record(self, scene: Scene, image: np.ndarray, instances: np.ndarray,
                amodal: np.ndarray | None = None

@@ -4,7 +4,9 @@
 (:mod:`sdcomp.render.footage`). Every frame of every file is a candidate: image ``i`` draws
 its frame, crop and flip from its own photo seed (:attr:`FeatureSeeds.photo`, made from
 ``(seed, i)``), so any worker draws the same background. The crop has the output's aspect
-ratio and covers 60-100 % of the frame's shorter side; it is resized to the output size.
+ratio and covers 60-100 % of the frame's shorter side, but never fewer frame pixels than the
+output has where the frame holds that many (footage is not enlarged: magnified, it is blurrier
+than any real frame); it is resized to the output size.
 Frames are read on demand and kept, downscaled to the largest size a crop of them can need,
 in a cache of :data:`CACHE_BYTES` per process.
 
@@ -47,6 +49,7 @@ EXTENSIONS = IMAGE_EXTENSIONS  # kept for code that imported it from here
 __all__ = ["EXTENSIONS", "MAX_PIXELS", "Backgrounds", "check_photo"]
 CACHE_BYTES = 256 * 2**20  #: decoded, downscaled frames kept per process
 MIN_CROP = 0.6  #: the crop covers at least this fraction of the frame's shorter side
+#: (and at least the output's width in frame pixels, where the frame is that wide)
 TRIES = 16  #: (frame, crop) draws per image looking for one clear of labelled objects
 BOX_MARGIN = 0.25  #: labelled boxes are widened by this fraction of their size on each side
 BOX_MARGIN_PX = 4.0  #: and by this many frame pixels
@@ -123,6 +126,12 @@ class Backgrounds:
     def pick(self, seed: tuple[int, ...], width: int, height: int) -> np.ndarray:
         """The background for an image whose photo seed sequence is ``seed``
         (:attr:`sdcomp.scene.scene.FeatureSeeds.photo`): (height, width, 3) uint8."""
+        return self.pick_scaled(seed, width, height)[0]
+
+    def pick_scaled(self, seed: tuple[int, ...], width: int, height: int
+                    ) -> tuple[np.ndarray, float]:
+        """(:meth:`pick`'s background, its magnification: output pixels per pixel of the
+        frame it was cut from; above 1 where the crop was enlarged)."""
         rng = np.random.default_rng(list(seed))
         aspect = width / height
         best: tuple[float, int, np.ndarray, bool] | None = None
@@ -130,7 +139,9 @@ class Backgrounds:
             i = int(rng.integers(len(self.sources)))
             s = self.sources[i]
             max_w = min(s.width, s.height * aspect)
-            cw = max_w * rng.uniform(MIN_CROP, 1.0)
+            # 60-100 % of the frame, but never enlarged where the frame is big enough:
+            # magnified footage is blurrier than any real frame (and than the objects)
+            cw = max_w * rng.uniform(max(MIN_CROP, min(width / max_w, 1.0)), 1.0)
             ch = cw / aspect
             x0 = rng.uniform(0, s.width - cw)
             y0 = rng.uniform(0, s.height - ch)
@@ -147,7 +158,7 @@ class Backgrounds:
         out = self._cut(i, crop, flip, width, height)
         if covered > 0:
             out = _paint(out, self.labelled_boxes(i), crop, flip)
-        return out
+        return out, width / max((crop[2] - crop[0]) * self.sources[i].width, 1e-9)
 
     def _cut(self, i: int, crop: np.ndarray, flip: bool, width: int, height: int
              ) -> np.ndarray:

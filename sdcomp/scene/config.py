@@ -26,9 +26,8 @@ from .look import RECORDINGS, STAGES
 from .objects import (
     CLUTTER_KINDS,
     DEFAULT_CLUTTER_KINDS,
-    SUPERCATEGORIES,
     ObjectSpec,
-    object_kind,
+    coco_categories,
     object_spec,
     resolve_clutter_kinds,
 )
@@ -103,10 +102,9 @@ class GeneratorConfig:
                              "instead of boxes")
     # camera
     camera: str = setting("mavic2pro", "custom", "drone camera: mavic2pro (77 deg diagonal "
-                          "FOV), phantom4pro (84 deg), zenmuse-x5 (72 deg), their 16:9 4K "
-                          "video (NAME-video, e.g. mavic2pro-video with --width 1920 --height "
-                          "1080), or custom with --fov and --sensor-px",
-                          "NAME")
+                          "FOV), phantom4pro (84), zenmuse-x5 (72), their 16:9 4K video "
+                          "(NAME-video), zenmuse-z30 (a zoom's 1920x1080 video at 40.5 deg: "
+                          "SeaDronesSee's 1080p frames), or custom (--fov, --sensor-px)", "NAME")
     fov: float | None = setting(None, "custom", "diagonal field of view, degrees (overrides "
                                 "the camera's)", "DEG")
     sensor_px: tuple[int, int] | None = setting(None, "custom", "sensor resolution, pixels "
@@ -146,6 +144,10 @@ class GeneratorConfig:
     background_labels: str | None = setting(None, "path", "COCO json or YOLO labels folder "
                                             "of real objects in the --backgrounds frames: "
                                             "kept out of every image", "LABELS")
+    footage_look: bool = setting(True, "bool", "over --backgrounds: the objects get the "
+                                 "footage's blur (--footage-blur) and noise (measured)")
+    footage_blur: float = setting(0.8, "float", "over --backgrounds: the footage camera's blur "
+                                  "at its own resolution (sigma)", "PX", 0.0, 5.0, "pixels")
     # light
     sun_elevation: Param = setting("25-80", "param", "sun elevation above the horizon, degrees",
                                    "DEG", 5.0, 90.0, "degrees")
@@ -335,11 +337,8 @@ class GeneratorConfig:
 
     @property
     def categories(self) -> list[dict]:
-        """COCO categories, ids from 1 in the order of ``objects`` (supercategories as
-        SeaDronesSee's for its kinds, else "object")."""
-        return [{"id": i + 1, "name": o.category,
-                 "supercategory": SUPERCATEGORIES.get(object_kind(o.mesh) or "", "object")}
-                for i, o in enumerate(self.objects)]
+        """COCO categories of ``objects`` (:func:`.objects.coco_categories`)."""
+        return coco_categories(self.objects)
 
     # ----------------------------------------------------------------- (de)serialise
     def to_dict(self) -> dict:

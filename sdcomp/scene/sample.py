@@ -77,8 +77,9 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
     quality = int(config.jpeg_quality.sample(rng))
     seeds = FeatureSeeds.of(int(rng.integers(2**31)), config.seed)
+    footage = config.footage_blur if config.backgrounds and config.footage_look else None
     return Scene(index, model, pose, water, placements, shore, hills, look, defocus, quality,
-                 seeds, config.shadows, config.glitter)
+                 seeds, config.shadows, config.glitter, footage_blur=footage)
 
 
 def _travel(rng: np.random.Generator, config: GeneratorConfig,
@@ -394,7 +395,6 @@ def _box_sides(model: CameraModel, pose: CameraPose, at: np.ndarray, hull: np.nd
 
 
 def _clutter_tint(rng: np.random.Generator) -> tuple[float, float, float]:
-    """Albedo gains of one clutter object of a kind with one mesh (logs, foam): lighter or
-    darker."""
+    """Albedo gains of a clutter object of a one-mesh kind (logs, foam): lighter or darker."""
     g = rng.uniform(0.8, 1.15)
     return (g, g, g)

@@ -113,6 +113,10 @@ class Scene:
     shadows: bool = True  # object shadows on the water and floor
     glitter: bool = True  # the sun's glitter drawn as sparkles
     hidden: tuple[int, ...] = ()  # placements not drawn (--unlabelled skip)
+    #: over the user's footage: its camera's blur at the frame's native resolution
+    #: (Gaussian sigma, frame pixels), given to the objects with its noise
+    #: (:mod:`sdcomp.render.harmonise`); None: the objects as rendered
+    footage_blur: float | None = None
 
     @property
     def gsd(self) -> float:
