@@ -45,7 +45,7 @@ def wake_strength(speed: float) -> tuple[float, float]:
     if speed < SPEED_MIN:
         return 0.0, 0.0
     core = min(0.15 + 0.8 * (speed - SPEED_MIN) / (FOAM_SPEED - SPEED_MIN), 0.95)
-    arms = 0.0 if speed < ARM_SPEED else min(0.1 + 0.05 * (speed - ARM_SPEED), 0.45)
+    arms = 0.0 if speed < ARM_SPEED else min(0.06 + 0.03 * (speed - ARM_SPEED), 0.25)
     return core, arms
 
 
@@ -59,23 +59,21 @@ def planing(speed: float) -> float:
 
 def foam_texture(shape: tuple[int, int], res: float, seed: tuple[int, ...]) -> np.ndarray:
     """(h, w) float32 zero-mean, unit-std turbulent foam field of a raster of ``res`` metres
-    per pixel (columns along the track): white noise blurred at three scales, 0.1, 0.35 and
-    1.2 m across the track and three times that along it (foam is drawn out into streaks
-    behind a hull), the finer scales weighted more (a broken, bubbly surface)."""
+    per pixel (columns along the track): noise smoothed at three scales, 0.1, 0.35 and 1.2 m
+    across the track and three times that along it (foam is drawn out into streaks behind a
+    hull), the finer scales weighted more (a broken, bubbly surface). Each scale is drawn
+    on a grid of about a third of its size and magnified (bilinear), so its cost does not
+    grow with the raster."""
     h, w = shape
     rng = np.random.default_rng([*seed, 0x3A4E])
     field = np.zeros((h, w), np.float32)
     for scale_m, weight in ((0.1, 1.0), (0.35, 0.8), (1.2, 0.6)):
-        sv = scale_m / res
-        f = max(1, int(sv // 4))  # blur wide scales on a reduced grid
-        hh, ww = -(-h // f), -(-w // f)
-        noise = rng.standard_normal((hh, ww)).astype(np.float32)
-        blurred = cv2.GaussianBlur(noise, (0, 0), sigmaX=max(3 * sv / f, 0.5),
-                                   sigmaY=max(sv / f, 0.5))
-        if f > 1:
-            blurred = cv2.resize(blurred, (ww * f, hh * f), interpolation=cv2.INTER_LINEAR)
-        blurred = blurred[:h, :w]
-        field += np.float32(weight) * (blurred / np.float32(max(float(blurred.std()), 1e-6)))
+        cv = max(scale_m / 3.0 / res, 1.0)  # raster pixels per grid cell, across
+        gh, gw = int(h / cv) + 2, int(w / (3.0 * cv)) + 2
+        noise = rng.random((gh, gw), dtype=np.float32)
+        up = cv2.resize(noise, (w, h), interpolation=cv2.INTER_CUBIC)
+        up = up - np.float32(up.mean())
+        field += np.float32(weight) * (up / np.float32(max(float(up.std()), 1e-6)))
     return field / np.float32(max(float(field.std()), 1e-6))
 
 
@@ -110,37 +108,41 @@ def wake_cover(length: float, beam: float, speed: float, res: float,
     front = length / 2 + beam
     res = max(res, (back + front) / RASTER_MAX, 2 * side / RASTER_MAX)
     w, h = int(math.ceil((back + front) / res)) + 1, int(math.ceil(2 * side / res)) + 1
-    u = (np.arange(w, dtype=np.float32) * res - front)[None, :]
-    v = (np.arange(h, dtype=np.float32) * res - side)[:, None]
-    behind = np.maximum(u - length / 2, 0.0)
-    seconds = behind / max(speed, 1e-6)  # since the stern passed
-    half = beam * (0.45 + 0.25 * plane) + 0.04 * behind
-    across = np.where(u > length / 2, np.exp(-(v / half) ** 4), 0.0)
+    u = np.arange(w, dtype=np.float32) * np.float32(res) - np.float32(front)  # (w,)
+    v = (np.arange(h, dtype=np.float32) * np.float32(res) - np.float32(side))[:, None]
+    behind = np.maximum(u - np.float32(length / 2), 0.0)
+    astern = (u > length / 2).astype(np.float32)
+    seconds = behind / np.float32(max(speed, 1e-6))  # since the stern passed
+    half = np.float32(beam * (0.45 + 0.25 * plane)) + np.float32(0.04) * behind
+    q = (v / half) ** 2
+    across = np.exp(-(q * q)) * astern  # flat-topped: ragged edges come from the texture
     # white water that breaks up in seconds, then a faint smooth scar that lasts
-    white = across * np.exp(-seconds / FOAM_SECONDS) * core
-    scar = across * np.exp(-3.0 * seconds / WAKE_SECONDS) * (SCAR * core)
+    white = across * (np.exp(-seconds / np.float32(FOAM_SECONDS)) * np.float32(core))
+    scar = across * (np.exp(-3.0 * seconds / np.float32(WAKE_SECONDS)) * np.float32(SCAR * core))
+    av = np.abs(v)
     if plane > 0:
         # the stern's white water thrown out either side at the wing angle
-        off = np.abs(v) - (beam / 2 + behind * math.tan(math.radians(WING_ANGLE)))
-        width = 0.2 * beam + 0.05 * behind
-        reach = WING_LENGTHS * length
-        wing = np.exp(-(off / width) ** 2) * np.exp(-behind / reach)
-        white = np.maximum(white, np.where(u > length / 2, wing, 0.0) * (0.9 * plane))
-    cover = white
+        off = av - (np.float32(beam / 2) + behind * np.float32(math.tan(math.radians(WING_ANGLE))))
+        width = np.float32(0.2 * beam) + np.float32(0.05) * behind
+        fade = np.exp(-behind / np.float32(WING_LENGTHS * length)) * astern * np.float32(
+            0.9 * plane)
+        np.maximum(white, np.exp(-(off / width) ** 2) * fade, out=white)
     if arms > 0:
         # the Kelvin arms: from the bow, at the cusp angle either side of the track
-        along = u + length / 2
+        along = np.maximum(u + np.float32(length / 2), 0.0)
         reach = min(ARM_SECONDS * speed, WAKE_MAX)
-        off = np.abs(v) - along * math.tan(math.radians(KELVIN_HALF_ANGLE))
-        width = 0.15 * beam + 0.02 * np.maximum(along, 0.0)
-        line = np.exp(-(off / width) ** 2) * np.exp(-2.0 * np.maximum(along, 0) / reach)
-        cover = np.maximum(cover, np.where(along > 0, line, 0.0) * arms)
+        off = av - along * np.float32(math.tan(math.radians(KELVIN_HALF_ANGLE)))
+        width = np.float32(0.15 * beam) + np.float32(0.02) * along
+        fade = np.exp(-2.0 * along / np.float32(reach)) * (u + length / 2 > 0) * np.float32(arms)
+        np.maximum(white, np.exp(-(off / width) ** 2) * fade.astype(np.float32), out=white)
     field = foam_texture((h, w), res, seed)
     # young foam is solid, old foam breaks up into streaks: the threshold rises with age
-    age = np.minimum(seconds / FOAM_SECONDS, 2.0)
-    broken = np.clip(1.0 + 0.5 * field - 0.45 * age, 0.0, 1.0)
-    cover = np.maximum(cover * broken, scar).astype(np.float32)
-    return np.minimum(cover, 1.0), front, side, res
+    age = np.minimum(seconds / np.float32(FOAM_SECONDS), 2.0)
+    broken = field * np.float32(0.5) + (np.float32(1.2) - np.float32(0.55) * age)
+    np.clip(broken, 0.0, 1.0, out=broken)
+    cover = np.maximum(white * broken, scar)
+    np.minimum(cover, 1.0, out=cover)
+    return cover.astype(np.float32, copy=False), front, side, res
 
 
 def place_wake(shape: tuple[int, int], u0: float, v0: float, res: float, track: np.ndarray,
