@@ -7,12 +7,12 @@ The dataset is rendered at 1920 x 1080 with the preset's camera (the same field 
 every pixel size is half that of the 3840 x 2160 frames, and is doubled before comparing)
 to keep the test short; the reference is its 3840 x 2160 frames, the ones with flight
 metadata. How close (400 frames: with 200, the 30-60 jet skis, appliances and buoys made
-quantiles that moved by up to 0.3 from one draw of the scenes to the next): altitudes and pitches within a few percent (pitches down
-to the floor of 2 degrees); box sizes per class within 1.25 times SeaDronesSee's at p10,
-p50 and p90 where they are (each class is placed where SeaDronesSee's boxes lie in the
-frame: swimmers near the centre, boats and buoys high in oblique frames, on the row where
-it shows a box size drawn from its class's, each size drawn as often as the views that
-can show it require: ``size_weight``).
+quantiles that moved by up to 0.3 from one draw of the scenes to the next): altitudes and
+pitches within a few percent (pitches down to the floor of 2 degrees); box sizes per class
+within 1.25 times SeaDronesSee's at p10, p50 and p90 where they are (each class is placed
+where SeaDronesSee's boxes lie in the frame: swimmers near the centre, boats and buoys high
+in oblique frames, on the row where it shows a box size drawn from its class's, each size
+drawn as often as the views that can show it require: ``size_weight``).
 """
 
 from __future__ import annotations
