@@ -38,9 +38,14 @@ def extruded(alpha: np.ndarray, height: np.ndarray | None, step: tuple[float, fl
     px, py = int(math.ceil(abs(sx))), int(math.ceil(abs(sy)))
     rows, cols = alpha.shape
     out = np.zeros((rows + 2 * py, cols + 2 * px), np.float32)
+    part, above = np.empty_like(alpha), np.empty(alpha.shape, bool)  # reused per slice
     for j in range(k + 1):
         z = top * j / k
-        part = alpha if j == 0 else np.where(h >= z - 1e-6, alpha, 0.0).astype(np.float32)
+        if j == 0:
+            part[:] = alpha
+        else:
+            np.greater_equal(h, z - 1e-6, out=above)
+            np.multiply(alpha, above, out=part)
         ox, oy = px + int(round(z * step[0])), py + int(round(z * step[1]))
         view = out[oy:oy + rows, ox:ox + cols]
         np.maximum(view, part, out=view)
@@ -63,12 +68,17 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     sigma = layer.shadow_blur
     f = max(1, int(sigma // SHADOW_BLUR_WORK))
     pad = -(-(int(math.ceil(2 * sigma)) + 1) // f) * f  # a multiple of f
-    cover, dx, dy = extruded(layer.alpha, layer.shadow_height, layer.shadow_step)
-    x0, y0 = x0 + dx, y0 + dy
+    alpha, height, step = layer.alpha, layer.shadow_height, layer.shadow_step
+    if f > 1:  # extruded on the reduced copy: (1 / f)**2 of the memory and the work
+        small = (-(-alpha.shape[1] // f), -(-alpha.shape[0] // f))
+        alpha = cv2.resize(alpha, small, interpolation=cv2.INTER_AREA)
+        height = None if height is None else cv2.resize(height, small,
+                                                        interpolation=cv2.INTER_AREA)
+        step = (step[0] / f, step[1] / f)
+    cover, dx, dy = extruded(alpha, height, step)
+    x0, y0 = x0 + dx * f, y0 + dy * f
     a8 = cv2.convertScaleAbs(cover, alpha=255.0)
-    if f > 1:
-        a8 = cv2.resize(a8, (-(-a8.shape[1] // f), -(-a8.shape[0] // f)),
-                        interpolation=cv2.INTER_AREA)
+    del alpha, height, cover
     a8 = cv2.copyMakeBorder(a8, pad // f, pad // f, pad // f, pad // f,
                             cv2.BORDER_CONSTANT, value=0)
     if sigma > 0.3:
@@ -132,11 +142,14 @@ def over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:
 
 def composite(image: np.ndarray, layers: list[Layer], shadows: bool) -> None:
     """Draw ``layers`` (far to near) onto the uint8 (H, W, 3) ``image`` in place, their
-    shadows first when ``shadows``. Each layer's ``colour`` is released once drawn (set to
-    :data:`NO_COLOUR`): the masks need only coverage and weights."""
+    shadows first when ``shadows``. Each layer's shadow caster is released once the shadows
+    are cast (set to None) and its ``colour`` once drawn (set to :data:`NO_COLOUR`): the
+    masks need only coverage and weights."""
     if shadows:
         for layer in layers:
             cast_shadow(image, layer)
+    for layer in layers:
+        layer.shadow_height = None  # cast (or not wanted): released
     for k, layer in enumerate(layers):
         over(image, layer, layers[:k])
         layer.colour = NO_COLOUR  # drawn: only its coverage and weight are used from here

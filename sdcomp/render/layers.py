@@ -230,25 +230,32 @@ def make_layers(i: int, pl: Placement, src: SpriteSource, view: SpriteView, scen
     np.multiply(prepared[0], np.maximum(-depth, 0.0), out=stack[..., 5])
     stack = refract(stack, depth, (view.basis @ view.rot.T)[:, 2], pitch_m)
     x0, y0, x1, y1 = view.roi
-    warped = cv2.warpAffine(stack, view.affine, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
-                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    if warped.ndim == 2:
-        warped = warped[..., None]
+    # each warped on its own (contiguous): the colour is released once drawn, the shadow's
+    # caster once cast (:func:`sdcomp.render.composite.composite`)
+    colour, alpha, weight, caster = (_warp(stack[..., c], view.affine, (x1 - x0, y1 - y0))
+                                     for c in (slice(0, 3), 3, 4, 5))
     # coverage and weight: bilinear mixes of values in [0, 1] with weights >= 0 summing
     # to 1 (within rounding): capped at 1 in place
-    coverage = warped[..., 3:5]
-    np.minimum(coverage, 1.0, out=coverage)
+    np.minimum(alpha, 1.0, out=alpha)
+    np.minimum(weight, 1.0, out=weight)
     size_m = math.sqrt(float(prepared[0].sum())) * pitch_m
     offset, strength, blur = shadow(view, model, scene, lit, column, size_m)
     a = view.affine
     # the silhouette as the surface shows it (refracted), inside the frame or not
     full = float(stack[..., 3].sum()) * abs(float(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]))
-    layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, warped[..., :3],
-                  warped[..., 3], warped[..., 4], offset, strength, blur, full,
-                  warped[..., 5], shadow_step(view, lit), water_srgb(scene, pl, lit, column))
+    layer = Layer(i, pl.role, pl.category_id, view.depth, view.roi, colour, alpha, weight,
+                  offset, strength, blur, full, caster, shadow_step(view, lit),
+                  water_srgb(scene, pl, lit, column))
     foam = [foam_ring(i, view, prepared[0], depth, pitch_m, scene, lit, column),
             wake_foam(i, pl, view, size_m, src.waterline, scene, lit, column)]
     return layer, [f for f in foam if f is not None]
+
+
+def _warp(channels: np.ndarray, affine: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``channels`` (n, n[, c]) float32 warped by ``affine`` into a (size[1], size[0][, c])
+    float32 array of its own: bilinear, zero outside."""
+    return cv2.warpAffine(np.ascontiguousarray(channels), affine, size, flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
 
 def foam_ring(i: int, view: SpriteView, alpha: np.ndarray, depth: np.ndarray,
