@@ -176,12 +176,14 @@ _DRAW = {"motorboat": _draw_motorboat, "rib": _draw_rib, "sailboat": _draw_sailb
 ABOARD = {"motorboat": (0.15, 0.25, 0.30, 0.20, 0.10), "rib": (0.0, 0.4, 0.4, 0.2),
           "cabin_cruiser": (0.3, 0.3, 0.3, 0.1), "sailboat": (0.3, 0.4, 0.3)}
 #: a motor boat without a T-top has a bimini (a canvas sun top over the cockpit) on 3 in 5;
-#: canvas colours weighted as rental and leisure boats show them (navy, white, grey,
-#: black, burgundy, red and the pink of lake rental boats)
+#: its canvas colour the motor boat's turn in this cycle (its count among the variants
+#: before it), ordered so that any few variants show the common colours first: navy most,
+#: then grey, white, tan and black, burgundy, red and the pink of lake rental boats once
 BIMINI_SHARE = 0.6
 BIMINI: tuple[tuple[int, int, int], ...] = (
-    (35, 50, 95), (35, 50, 95), (225, 225, 218), (150, 150, 148), (35, 35, 38),
-    (120, 35, 45), (195, 35, 40), (220, 45, 120), (220, 45, 120),
+    (35, 50, 95), (150, 150, 148), (225, 225, 218), (35, 50, 95), (190, 176, 142),
+    (35, 35, 38), (150, 150, 148), (35, 50, 95), (120, 35, 45), (225, 225, 218),
+    (195, 35, 40), (220, 45, 120),
 )
 
 
@@ -202,7 +204,10 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
                                                                  p=share / share.sum())))
         if sub == "motorboat":
             top = not params["t_top"] and aboard.random() < BIMINI_SHARE
-            params["bimini"] = _col(aboard, BIMINI, 0.04) if top else None
+            turn = SUB_TYPE_CYCLE[:variant % len(SUB_TYPE_CYCLE)].count("motorboat")
+            turn += variant // len(SUB_TYPE_CYCLE) * SUB_TYPE_CYCLE.count("motorboat")
+            canvas = BIMINI[turn % len(BIMINI)]
+            params["bimini"] = list(jitter(canvas, aboard, 0.04)) if top else None
     return params
 
 
