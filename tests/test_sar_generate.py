@@ -119,6 +119,7 @@ def test_readme_command_lines_of_the_section_parse():
     """Every ``sdcomp generate`` line of docs/sar.md makes a
     valid config (flags, preset, weights, clutter kinds), without running it."""
     section = (Path(__file__).resolve().parents[1] / "docs" / "sar.md").read_text()
+    section = section.replace("\\\n", " ")  # a command continued on the next line
     lines = [ln.split("#")[0] for ln in section.splitlines()
              if ln.startswith("sdcomp generate ")]
     assert len(lines) >= 4
