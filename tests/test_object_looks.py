@@ -185,9 +185,14 @@ def test_jet_skis_are_mostly_white_or_black_with_one_accent():
     light = sum(min(d) > 180 for d in decks)
     dark = sum(max(d) < 90 for d in decks)
     assert light >= 4 and dark >= 3
+    accents = [sar.describe_variant("jetski", v)["colours"]["trim"] for v in range(8)]
+    blue = sum(a[2] > 150 and a[0] < 60 for a in accents)
+    red_orange = sum(a[0] > 180 and a[2] < 60 and a[1] < 130 for a in accents)
+    assert blue >= 2 and red_orange <= 1, accents  # blue the makers' commonest
     for v in range(8):
         c = sar.describe_variant("jetski", v)["colours"]
-        assert max(c["seat"]) < 140  # black or grey saddles
+        # black or grey saddles: the palette's lightest grey, 136, jittered by up to 4 %
+        assert max(c["seat"]) <= 142
 
 
 def test_decked_boats_carry_people_and_motor_boats_biminis():

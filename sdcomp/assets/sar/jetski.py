@@ -51,7 +51,8 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
     trim = jitter(pick(rng, palette.PWC_TRIM), rng, 0.04)
     rider = variant % 2 == 0
     colours = _colours(rng_for("jetski-colours", variant),
-                       palette.PWC_DECK[variant % len(palette.PWC_DECK)])
+                       palette.PWC_DECK[variant % len(palette.PWC_DECK)],
+                       palette.PWC_ACCENT[variant % len(palette.PWC_ACCENT)])
     params = {
         "kind": "jetski", "sub_type": sub, "length": _r(rng.uniform(l0, l1)),
         "width": _r(rng.uniform(w0, w1)), "height": _r(rng.uniform(h0, h1)),
@@ -79,13 +80,13 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
     return params
 
 
-def _colours(rng: np.random.Generator, deck_rgb) -> dict:
-    """The paint of a jet ski of deck colour ``deck_rgb`` (sRGB lists): seen from above,
-    personal watercraft are mostly a white, grey or black deck and hull with one bright
-    accent on the hood, the pod and the side panels (:data:`~.palette.PWC_ACCENT`), a
-    black or grey saddle and dark footwell mats."""
+def _colours(rng: np.random.Generator, deck_rgb, accent_rgb) -> dict:
+    """The paint of a jet ski of deck colour ``deck_rgb`` and accent ``accent_rgb`` (sRGB
+    lists): seen from above, personal watercraft are mostly a white, grey or black deck
+    and hull with one bright accent on the hood, the pod and the side panels
+    (:data:`~.palette.PWC_ACCENT`), a black or grey saddle and dark footwell mats."""
     deck = jitter(deck_rgb, rng, 0.03)
-    accent = jitter(pick(rng, palette.PWC_ACCENT), rng, 0.04)
+    accent = jitter(accent_rgb, rng, 0.04)
     hull = pick(rng, (deck, deck, palette.WHITE, palette.DARK_GREY, palette.BLACK))
     seat = jitter(pick(rng, palette.PWC_SEAT), rng, 0.04)
     return {"deck": list(deck), "hull": list(hull), "trim": list(accent), "seat": list(seat),

@@ -116,11 +116,13 @@ PWC_TRIM: tuple[RGB, ...] = ((30, 30, 34), (90, 90, 95), (235, 235, 232), (245, 
 #: three (Kawasaki, performance models), light grey on one
 PWC_DECK: tuple[RGB, ...] = ((236, 236, 232), (32, 32, 35), (236, 236, 232), (205, 207, 208),
                              (236, 236, 232), (32, 32, 35), (236, 236, 232), (70, 72, 76))
-#: its one bright accent (hood, pod, side panels): the makers' blue, lime, yellow, red,
-#: orange and teal, or a plain black or grey
+#: its one bright accent (hood, pod, side panels): variant ``v`` takes entry ``v`` (mod 8),
+#: so that the eight variants show the makers' colours as often as the market does, blue
+#: the most (two), then teal, lime, yellow, red, black and grey (a draw of eight from
+#: these gave three red or orange)
 PWC_ACCENT: tuple[RGB, ...] = (
-    (30, 80, 170), (30, 80, 170), (140, 200, 40), (240, 200, 20), (200, 30, 35),
-    (240, 110, 30), (20, 140, 150), (32, 32, 35), (120, 122, 126),
+    (30, 80, 170), (140, 200, 40), (20, 140, 150), (32, 32, 35), (30, 80, 170),
+    (120, 122, 126), (240, 200, 20), (200, 30, 35),
 )
 PWC_SEAT: tuple[RGB, ...] = ((28, 28, 30), (28, 28, 30), (28, 28, 30), (55, 57, 60),
                              (130, 132, 136))
