@@ -347,16 +347,25 @@ def test_cli_help_is_listed_and_clear(capsys):
     (["{empty}", "--out", "x.json"], ".toml"),
     (["{empty}", "--altitude"], "--altitude"),
     (["{empty}", "--fov", "200"], "--fov 200"),
+    (["{good}", "--labels", "{labels}"], "--labels"),
 ])
 def test_cli_bad_input_is_one_line(argv, needle, tmp_path, capsys):
+    """One line naming fit's own options (not `realism`'s --real, --real-labels)."""
     (tmp_path / "empty").mkdir()
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "bad.jpg").write_bytes(b"not a jpeg")
-    argv = [a.format(empty=tmp_path / "empty", bad=tmp_path / "bad") for a in argv]
+    (tmp_path / "good").mkdir()
+    cv2.imwrite(str(tmp_path / "good" / "f0.png"), np.full((32, 48, 3), 90, np.uint8))
+    labels = tmp_path / "labels.json"  # lists none of the frames
+    labels.write_text(json.dumps({"images": [{"id": 1, "file_name": "other.jpg", "width": 48,
+                                              "height": 32}], "annotations": [],
+                                  "categories": [{"id": 1, "name": "boat"}]}))
+    argv = [a.format(empty=tmp_path / "empty", bad=tmp_path / "bad", good=tmp_path / "good",
+                     labels=labels) for a in argv]
     rc, _, err = _cli(argv, capsys)
     assert rc == 2
     assert err.count("\n") == 1 and err.startswith("error:") and needle in err, err
-    assert "Traceback" not in err
+    assert "Traceback" not in err and "--real" not in err, err
 
 
 def test_cli_writes_a_config_generate_reads(tmp_path, sprites_dir, capsys):

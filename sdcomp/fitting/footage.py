@@ -75,7 +75,8 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     (:func:`~sdcomp.report.realism.sources.sky_mask`). UserError when nothing can be read or
     measured."""
     _check_options(size, max_frames, fov)
-    fs = load_real(path, labels, max_images=max_frames, seed=seed)
+    fs = load_real(path, labels, max_images=max_frames, seed=seed,
+                   option_names=("FRAMES", "--labels"))
     if not fs.frames:
         raise UserError(f"{path}: no photos or videos found")
     s0 = fs.frames[0].source

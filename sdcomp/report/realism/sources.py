@@ -205,7 +205,8 @@ def load_generated(folder: str | Path, max_images: int | None = None, seed: int 
 # --------------------------------------------------------------------------- real frames
 
 def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | None = None,
-              fov: float | None = None, max_images: int | None = None, seed: int = 0
+              fov: float | None = None, max_images: int | None = None, seed: int = 0,
+              option_names: tuple[str, str] = ("--real", "--real-labels")
               ) -> FrameSet:
     """The real frames at ``path`` (photos and videos; at most ``max_images``, a seeded
     choice).
@@ -216,13 +217,17 @@ def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | N
         gsd: metres per pixel of every frame (overrides the meta).
         fov: diagonal field of view of the frames as stored, degrees (for the GSD from meta
             and the horizon of oblique frames).
+        option_names: how the command calls the frames and the labels in its errors (``sdcomp
+            realism``: ``--real``, ``--real-labels``; ``sdcomp fit``: ``FRAMES``,
+            ``--labels``).
     UserError for a missing path, no frames, unreadable labels or bad values."""
     if gsd is not None and not (math.isfinite(gsd) and 0 < gsd < 1000):
         raise UserError(f"--real-gsd {gsd} is out of range: use metres per pixel > 0")
     if fov is not None and not 1 < fov < 170:
         raise UserError(f"--real-fov {fov} is out of range: use 1 to 170 degrees")
-    sources = list_sources(path, "--real")
-    lab: Labels | None = read_labels(labels, "--real-labels") if labels is not None else None
+    sources = list_sources(path, option_names[0])
+    lab: Labels | None = (read_labels(labels, option_names[1]) if labels is not None
+                          else None)
     frames, unlisted = [], 0
     for s in sources:
         fl = lab.of(s.key) if lab is not None else None
@@ -236,7 +241,7 @@ def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | N
         frames.append(Frame(s.path, 0, boxes, None, dict(fl.meta) if fl else {}, source=s,
                             categories=names))
     if lab is not None and not frames:
-        raise UserError(f"--real-labels {labels}: none of the {len(sources)} frames of "
+        raise UserError(f"{option_names[1]} {labels}: none of the {len(sources)} frames of "
                         f"{path} is listed in it (matched by file name without extension; "
                         f"video frames: <video name>_<frame:06d>)")
     frames = subsample(frames, max_images, seed)
