@@ -36,14 +36,10 @@ class Background:
         self.textures = textures
         self.photos = photos
 
-    def draw(self, scene: Scene) -> tuple[np.ndarray, WaterLight]:
-        """(image (H, W, 3) uint8 sRGB at this background's size, the objects' light)."""
-        image, light, _ = self.draw_scaled(scene)
-        return image, light
-
-    def draw_scaled(self, scene: Scene) -> tuple[np.ndarray, WaterLight, float | None]:
-        """:meth:`draw`'s (image, light) and, over a photo, its magnification (output pixels
-        per pixel of the frame it was cut from; None for procedural water)."""
+    def draw(self, scene: Scene) -> tuple[np.ndarray, WaterLight, float | None]:
+        """(image (H, W, 3) uint8 sRGB at this background's size, the objects' light, and
+        over a photo its magnification: output pixels per pixel of the frame it was cut
+        from; None for procedural water)."""
         model, pose = self.model, scene.camera
         view = view_water(model, pose, scene.water, self.textures.water)
         if self.photos is not None:

@@ -118,7 +118,7 @@ class Compositor:
         photo's magnification (output pixels per frame pixel; None for procedural water)."""
         model = scene.model
         background = self.background(model)
-        image, light, magnified = background.draw_scaled(scene)
+        image, light, magnified = background.draw(scene)
         if background.model != model:
             scale = model.width / background.model.width
             image = cv2.resize(image, (model.width, model.height),

@@ -56,13 +56,16 @@ def footage_camera(photo: np.ndarray, magnification: float, native_blur: float
     return FootageCamera(blur, noise_level(y))
 
 
-def coverage(shape: tuple[int, int], layers: list[Layer]) -> np.ndarray:
-    """(H, W) float32: the union of the layers' coverage (their maximum) in a frame of
-    ``shape``."""
+def coverage(shape: tuple[int, int], layers: list[Layer], origin: tuple[int, int] = (0, 0)
+             ) -> np.ndarray:
+    """(h, w) float32: the union of the layers' coverage (their maximum) over a window of
+    ``shape`` whose top-left pixel is frame pixel ``origin`` (x, y)."""
     out = np.zeros(shape, np.float32)
+    ox, oy = origin
     for layer in layers:
         x0, y0, x1, y1 = layer.roi
-        np.maximum(out[y0:y1, x0:x1], layer.alpha, out=out[y0:y1, x0:x1])
+        np.maximum(out[y0 - oy:y1 - oy, x0 - ox:x1 - ox], layer.alpha,
+                   out=out[y0 - oy:y1 - oy, x0 - ox:x1 - ox])
     return out
 
 
@@ -74,26 +77,31 @@ def harmonise(image: np.ndarray, layers: list[Layer], camera: FootageCamera,
     if not layers or (camera.blur < 0.05 and camera.noise < 0.05):
         return
     h, w = image.shape[:2]
-    cover = coverage((h, w), layers)
+    # the coverage over the layers' boxes only (not a frame-sized array), then its extent
+    bx0, by0 = min(lay.roi[0] for lay in layers), min(lay.roi[1] for lay in layers)
+    bx1, by1 = max(lay.roi[2] for lay in layers), max(lay.roi[3] for lay in layers)
+    cover = coverage((by1 - by0, bx1 - bx0), layers, (bx0, by0))
     rows, cols = np.flatnonzero(cover.any(axis=1)), np.flatnonzero(cover.any(axis=0))
     if not len(rows):
         return
     reach = int(math.ceil(3 * camera.blur)) + 2
-    y0, y1 = max(int(rows[0]) - reach, 0), min(int(rows[-1]) + reach + 1, h)
-    x0, x1 = max(int(cols[0]) - reach, 0), min(int(cols[-1]) + reach + 1, w)
+    y0, y1 = max(by0 + int(rows[0]) - reach, 0), min(by0 + int(rows[-1]) + reach + 1, h)
+    x0, x1 = max(bx0 + int(cols[0]) - reach, 0), min(bx0 + int(cols[-1]) + reach + 1, w)
     region = image[y0:y1, x0:x1].astype(np.float32)
-    c = cover[y0:y1, x0:x1]
+    size = (y1 - y0, x1 - x0)
+    c = np.zeros(size, np.float32)  # the coverage over the region
+    iy0, iy1, ix0, ix1 = max(y0, by0), min(y1, by1), max(x0, bx0), min(x1, bx1)
+    c[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0] = cover[iy0 - by0:iy1 - by0, ix0 - bx0:ix1 - bx0]
     if camera.blur >= 0.05:
-        sharp = region
-        blurred = cv2.GaussianBlur(sharp, (0, 0), camera.blur)
+        blurred = cv2.GaussianBlur(region, (0, 0), camera.blur)
         # where the blur reaches: the objects and the rim their edges spread over
         mix = np.minimum(cv2.GaussianBlur(c, (0, 0), camera.blur + 0.5) * 3.0, 1.0)
-        region = sharp + (blurred - sharp) * mix[..., None]
+        region = region + (blurred - region) * mix[..., None]
     if camera.noise >= 0.05:
         rng = np.random.default_rng([*seed, 0x4A2D])
-        grain = rng.standard_normal(c.shape).astype(np.float32)[..., None]
+        grain = rng.standard_normal(size).astype(np.float32)[..., None]
         grain = grain + np.float32(CHROMA_NOISE) * rng.standard_normal(
-            c.shape + (3,)).astype(np.float32)
+            size + (3,)).astype(np.float32)
         scale = np.float32(camera.noise / math.sqrt(1.0 + CHROMA_NOISE ** 2))
         region = region + grain * (scale * c)[..., None]
     image[y0:y1, x0:x1] = np.clip(region + 0.5, 0, 255).astype(np.uint8)

@@ -350,16 +350,15 @@ STIR = {"tread": 1.0, "wave": 1.0, "distress": 1.0, "back": 0.4}
 def stirring(asset: str) -> float:
     """0-1: how much the object or clutter drawn from ``asset`` stirs the water around it
     at rest (:data:`STIR` by a swimmer variant's pose; 0 for everything else)."""
-    name = asset.removeprefix(CLUTTER_PREFIX)
     if asset_kind(asset) != "swimmer":
         return 0.0
-    parsed = sar.parse_name(name)
-    return STIR.get(_pose_of(name), 0.0) if parsed is not None else 0.0
+    return STIR.get(_pose_of(asset.removeprefix(CLUTTER_PREFIX)), 0.0)
 
 
 @functools.cache
 def _pose_of(name: str) -> str:
-    """The pose (sub-type) of swimmer variant ``name``."""
+    """The pose (sub-type) of swimmer variant ``name``; "" for a name that is not a
+    variant's."""
     parsed = sar.parse_name(name)
     return sar.describe_variant(*parsed)["sub_type"] if parsed is not None else ""
 
@@ -368,7 +367,5 @@ def _pose_of(name: str) -> str:
 def _swimming(name: str) -> bool:
     """Whether the swimmer variant ``name`` (e.g. ``swimmer-02``) swims (a pose of
     :data:`sar.swimmer.SWIMMING`); True for a name that is not a variant's."""
-    parsed = sar.parse_name(name)
-    if parsed is None:
-        return True
-    return sar.describe_variant(*parsed)["sub_type"] in sar.swimmer.SWIMMING
+    pose = _pose_of(name)
+    return not pose or pose in sar.swimmer.SWIMMING

@@ -13,6 +13,8 @@ import math
 import cv2
 import numpy as np
 
+from .tiles import grid_patches
+
 LAPLACE = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 PATCH = 64  #: patch side, pixels
 
@@ -31,13 +33,10 @@ def patch_noise(y: np.ndarray, patch: int = PATCH) -> np.ndarray:
     """(n,) float64 noise estimate (levels) of each non-overlapping ``patch`` x ``patch``
     tile of the (H, W) luma ``y`` (a grid from the top-left corner, row-major; remainders
     left out); empty when the image is smaller than a patch."""
-    r = residual(y)
-    rows, cols = r.shape[0] // patch, r.shape[1] // patch
-    if rows * cols == 0:
+    tiles = grid_patches(residual(y), patch)
+    if len(tiles) == 0:
         return np.zeros(0)
-    tiles = r[:rows * patch, :cols * patch].reshape(rows, patch, cols, patch)
-    flat = tiles.swapaxes(1, 2).reshape(rows * cols, -1)
-    return flat.mean(axis=1, dtype=np.float64) * SCALE
+    return tiles.reshape(len(tiles), -1).mean(axis=1, dtype=np.float64) * SCALE
 
 
 def noise_level(y: np.ndarray, percentile: float = 25.0, patch: int = PATCH) -> float:

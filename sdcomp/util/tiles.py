@@ -26,3 +26,13 @@ def wrap_window(tile: np.ndarray, y0: int, x0: int, h: int, w: int,
             x += ww
         y += hh
     return out
+
+
+def grid_patches(a: np.ndarray, size: int) -> np.ndarray:
+    """(n, size, size, ...) copy of the non-overlapping ``size`` x ``size`` patches of an
+    (H, W, ...) array on a grid from its top-left corner, row-major (remainders left out;
+    n = (H // size) (W // size)); trailing axes (e.g. colour) are kept."""
+    rows, cols = a.shape[0] // size, a.shape[1] // size
+    rest = a.shape[2:]
+    t = a[:rows * size, :cols * size].reshape(rows, size, cols, size, *rest)
+    return t.swapaxes(1, 2).reshape(rows * cols, size, size, *rest)

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ...util.tiles import grid_patches
+
 PATCH = 64  #: patch side, pixels
 BLUR = 9  #: box-blur side of the high-pass filter, pixels
 GLINT_LEVEL = 230.0  #: luminance at or above which a pixel counts as glint (8-bit levels)
@@ -98,12 +100,9 @@ def patch_origins(height: int, width: int, size: int = PATCH) -> np.ndarray:
 def to_patches(a: np.ndarray, size: int = PATCH) -> np.ndarray:
     """(n, size, size, ...) copy of the grid patches of an (H, W, ...) array, row-major.
 
-    n = (H // size) * (W // size); trailing axes (e.g. colour) are kept."""
-    h, w = a.shape[:2]
-    rows, cols = grid_shape(h, w, size)
-    rest = a.shape[2:]
-    t = a[:rows * size, :cols * size].reshape(rows, size, cols, size, *rest)
-    return t.swapaxes(1, 2).reshape(rows * cols, size, size, *rest)
+    n = (H // size) * (W // size); trailing axes (e.g. colour) are kept
+    (:func:`sdcomp.util.tiles.grid_patches`)."""
+    return grid_patches(a, size)
 
 
 def _patch_any(mask: np.ndarray, size: int) -> np.ndarray:
