@@ -7,7 +7,11 @@ dataset whose masks, boxes and areas agree, or is refused with a one-line
 - whole runs over the config space with the extremes pinned as examples: an object that
   overflows the frame (1 m altitude), sub-pixel objects (1000 m), pitch at the 2 degree
   floor (the horizon just above the frame's centre), 1 x 1 output, zero objects, hundreds
-  of overlapping objects.
+  of overlapping objects;
+- the files users hand over (tests/user_inputs.py): photos of every kind damaged every way,
+  COCO files with any field changed, YOLO lines of any text, read as ``realism``, ``fit``,
+  ``bench sim2real`` and ``--backgrounds`` read them and through those whole commands: they
+  work or stop with one line naming the file, nothing written.
 
 The CI runs a modest number of examples; ``pytest -m slow tests/test_fuzz.py`` runs the long
 campaign (and an 8000 x 8000 frame) and prints its figures.
@@ -35,6 +39,17 @@ from sdcomp.scene.config import GeneratorConfig, load_toml
 from sdcomp.scene.settings import setting_of
 
 from .datasets import check_intact
+from .user_inputs import (
+    check_command,
+    check_user_files,
+    coco_edits,
+    command,
+    generated,
+    photo_files,
+    yolo_lines,
+)
+
+__all__ = ["command", "generated"]  # fixtures
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
@@ -341,3 +356,45 @@ def test_8000_square_frame(sprites_dir):
     check_run({"n": 1, "seed": 8, "width": 8000, "height": 8000, "altitude": "5-50",
                "pitch": 90, "heading": 0, "count": 20, "clutter": 5.0}, sprites_dir)
 
+
+
+# --------------------------------------------------------------------------- user files
+# photos of any kind damaged any way, COCO files with any field changed, YOLO lines of any
+# text, read as every command reads them and through whole commands (tests/user_inputs.py)
+
+INPUTS = settings(max_examples=40, deadline=None, derandomize=True,
+                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+INPUTS_SLOW = settings(max_examples=500, deadline=None,
+                       suppress_health_check=[HealthCheck.too_slow,
+                                              HealthCheck.data_too_large])
+COMMANDS = settings(max_examples=6, deadline=None, derandomize=True,
+                    suppress_health_check=list(HealthCheck))
+COMMANDS_SLOW = settings(max_examples=20, deadline=None,
+                         suppress_health_check=list(HealthCheck))
+
+
+@INPUTS
+@given(file=photo_files(), edit=coco_edits(), lines=st.lists(yolo_lines(), max_size=3))
+def test_user_files_work_or_are_refused_naming_them(file, edit, lines):
+    check_user_files(file, edit, lines)
+
+
+@pytest.mark.slow
+@INPUTS_SLOW
+@given(file=photo_files(), edit=coco_edits(), lines=st.lists(yolo_lines(), max_size=3))
+def test_user_files_campaign(file, edit, lines):
+    check_user_files(file, edit, lines)
+
+
+@COMMANDS
+@given(cmd=st.sampled_from(["realism", "backgrounds"]), file=photo_files(), edit=coco_edits())
+def test_commands_on_user_files(command, cmd, file, edit):
+    check_command(command, cmd, file, edit)
+
+
+@pytest.mark.slow
+@COMMANDS_SLOW
+@given(cmd=st.sampled_from(["realism", "backgrounds", "fit", "sim2real"]), file=photo_files(),
+       edit=coco_edits())
+def test_commands_on_user_files_campaign(command, cmd, file, edit):
+    check_command(command, cmd, file, edit)

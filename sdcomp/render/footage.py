@@ -12,8 +12,15 @@ matched to its labels by its *key*: a still's file name without the extension
 -start_number 0 flight_%06d.png`` gives it). YOLO names a frame's label file ``<key>.txt``
 (``class cx cy w h`` normalised, or ``class x1 y1 x2 y2 ...`` polygons); its class names come
 from a ``data.yaml`` (``names:``) or ``classes.txt`` beside or inside the folder. The
-renderer (:mod:`sdcomp.render.photos`), the realism report and ``bench sim2real`` all read the
-user's frames through these two modules.
+renderer (:mod:`sdcomp.render.photos`), the realism report, ``fit`` and ``bench sim2real``
+all read the user's frames through these two modules.
+
+One rule for a frame that cannot be read, in every command: the command stops before it
+writes anything, with one line naming the file and what is wrong (a UserError). The checks
+of :func:`list_sources` find what a header can tell (not an image, empty, truncated, too
+large, a video whose last frame does not decode); a frame that fails to decode later (its
+middle damaged) stops the command the same way. Photos are read as the viewer shows them:
+EXIF orientation applied, grey and 16-bit images as 8-bit RGB, CMYK converted.
 """
 
 from __future__ import annotations
@@ -26,6 +33,10 @@ import cv2
 import numpy as np
 
 from ..errors import UserError
+
+# FFmpeg (inside OpenCV's video reader) prints its complaints about a damaged file to stderr
+# itself; sdcomp reports a bad file in one line of its own (a user's setting wins)
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
 IMAGE_EXTENSIONS = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 VIDEO_EXTENSIONS = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".ts", ".webm", ".mpg")
@@ -57,9 +68,11 @@ def is_video(path: Path) -> bool:
 
 
 def check_photo(path: Path, what: str = "--backgrounds") -> tuple[int, int]:
-    """(width, height) from the header of the photo at ``path``, read without decoding the
-    pixels; UserError naming the file when it is not a readable image or is larger than
-    :data:`MAX_PIXELS` (e.g. a decompression bomb: a small file claiming a huge image)."""
+    """(width, height) of the photo at ``path`` as it is displayed (EXIF orientation
+    applied, as :func:`read_photo` decodes it), read from its header without decoding the
+    pixels; UserError naming the file when it is not a readable image, is truncated (a JPEG
+    or PNG that ends before its end marker) or is larger than :data:`MAX_PIXELS` (e.g. a
+    decompression bomb: a small file claiming a huge image)."""
     import warnings
 
     from PIL import Image  # Pillow comes with matplotlib
@@ -69,6 +82,8 @@ def check_photo(path: Path, what: str = "--backgrounds") -> tuple[int, int]:
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(path) as im:  # reads the header only
                 w, h = im.size
+                if _orientation(im) in (5, 6, 7, 8):  # turned by a quarter: shown h x w
+                    w, h = h, w
     except Image.DecompressionBombError:
         w = h = -1  # larger than Pillow will even open
     except (OSError, ValueError, SyntaxError, Image.DecompressionBombWarning):
@@ -81,7 +96,32 @@ def check_photo(path: Path, what: str = "--backgrounds") -> tuple[int, int]:
                         f"downscale or remove it")
     if not cv2.haveImageReader(str(path)):
         raise UserError(f"{what}: cannot read {path} as an image; remove or replace it")
+    if _truncated(_ends(path), path):
+        raise UserError(_truncated_message(path, what))
     return w, h
+
+
+def _orientation(im) -> int:
+    """The EXIF orientation tag (1-8) of an open Pillow image; 1 where it has none."""
+    try:
+        value = im.getexif().get(0x0112, 1)
+    except Exception:  # noqa: BLE001 - a damaged EXIF block: the pixels as stored
+        return 1
+    return int(value) if isinstance(value, int) else 1
+
+
+def _ends(path: Path, n: int = 4096) -> bytes:
+    """The first 8 and the last ``n`` bytes of a file (all of it when it is short)."""
+    with open(path, "rb") as f:
+        head = f.read(8)
+        size = f.seek(0, os.SEEK_END)
+        f.seek(max(8, size - n))
+        return head + f.read()
+
+
+def _truncated_message(path: Path, what: str) -> str:
+    return (f"{what}: {path} is truncated (the file ends before the image does, e.g. an "
+            f"interrupted copy); remove or replace it")
 
 
 def video_info(path: Path, what: str = "--backgrounds") -> tuple[int, int, int]:
@@ -94,13 +134,20 @@ def video_info(path: Path, what: str = "--backgrounds") -> tuple[int, int, int]:
                             f"convert it, e.g. ffmpeg -i {path.name} -c:v libx264 out.mp4")
         n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
         w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        if w * h > MAX_PIXELS:
+            raise UserError(f"{what}: {path} has {w} x {h} pixel frames, more than "
+                            f"{MAX_PIXELS // 1_000_000} megapixels; downscale it")
         ok, first = cap.read()
         if n <= 0 or not ok or first is None:
             raise UserError(f"{what}: {path} has no frames OpenCV can count and decode; "
                             f"re-mux it, e.g. ffmpeg -i {path.name} -c copy out.mp4")
-        if w * h > MAX_PIXELS:
-            raise UserError(f"{what}: {path} has {w} x {h} pixel frames, more than "
-                            f"{MAX_PIXELS // 1_000_000} megapixels; downscale it")
+        if n > 1:  # a file cut short still claims its frames: the last one must decode
+            cap.set(cv2.CAP_PROP_POS_FRAMES, n - 1)
+            ok, last = cap.read()
+            if not ok or last is None:
+                raise UserError(f"{what}: {path} claims {n} frames but its last one does not "
+                                f"decode (truncated or damaged); re-encode it, e.g. ffmpeg -i "
+                                f"{path.name} -c:v libx264 out.mp4")
         return n, first.shape[1], first.shape[0]
     finally:
         cap.release()
@@ -151,12 +198,26 @@ def list_sources(path: str | Path, what: str = "--backgrounds") -> list[Source]:
     return out
 
 
-def _truncated(data: bytes) -> bool:
-    """Whether a JPEG or PNG file stops before its end marker (an interrupted copy)."""
-    if data[:3] == b"\xff\xd8\xff":
-        return b"\xff\xd9" not in data[-4096:]
-    if data[:8] == b"\x89PNG\r\n\x1a\n":
-        return b"IEND" not in data[-4096:]
+def _truncated(ends: bytes, path: Path) -> bool:
+    """Whether the JPEG or PNG file at ``path`` stops before its image does (an interrupted
+    copy). ``ends``: its first 8 and last 4096 bytes (:func:`_ends`). Where they hold no end
+    marker, Pillow decodes the file to tell a cut-off image from one followed by other data
+    (a phone's motion photo, a vendor's trailer)."""
+    if ends[:3] == b"\xff\xd8\xff":
+        marked = b"\xff\xd9" in ends[-4096:]
+    elif ends[:8] == b"\x89PNG\r\n\x1a\n":
+        marked = b"IEND" in ends[-4096:]
+    else:
+        return False
+    if marked:
+        return False
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            im.load()  # raises on a truncated file (Pillow's LOAD_TRUNCATED_IMAGES is off)
+    except (OSError, ValueError, SyntaxError):
+        return True
     return False
 
 
@@ -168,9 +229,8 @@ def read_photo(path: Path, what: str = "--backgrounds") -> np.ndarray:
     except OSError as e:
         raise UserError(f"{what}: cannot read {path} ({e.strerror}); remove or replace "
                         f"it") from None
-    if _truncated(raw):
-        raise UserError(f"{what}: {path} is truncated (the file ends before the image "
-                        f"does); remove or replace it")
+    if _truncated(raw[:8] + raw[-4096:], path):
+        raise UserError(_truncated_message(path, what))
     data = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_COLOR)
     if data is None:
         raise UserError(f"{what}: cannot read {path} as an image; remove or replace it")
@@ -192,8 +252,9 @@ class VideoReader:
     def __setstate__(self, state: dict) -> None:
         self.__init__(state["what"])  # type: ignore[misc]
 
-    def frame(self, path: Path, k: int) -> np.ndarray:
-        """(H, W, 3) uint8 RGB frame ``k`` (0-based) of the video at ``path``."""
+    def frame(self, path: Path, k: int, what: str | None = None) -> np.ndarray:
+        """(H, W, 3) uint8 RGB frame ``k`` (0-based) of the video at ``path``; UserError
+        naming it (as ``what``, else the reader's) when that frame does not decode."""
         if self._pid != os.getpid():  # a forked child: never reuse the parent's captures
             self._open, self._pid = {}, os.getpid()
         cap = self._open.get(path)
@@ -203,13 +264,14 @@ class VideoReader:
             cap.set(cv2.CAP_PROP_POS_FRAMES, k)
         ok, bgr = cap.read()
         if not ok or bgr is None:
-            raise UserError(f"{self.what}: cannot decode frame {k} of {path}; re-encode it, "
-                            f"e.g. ffmpeg -i {path.name} -c:v libx264 out.mp4")
+            raise UserError(f"{what or self.what}: cannot decode frame {k} of {path}; "
+                            f"re-encode it, e.g. ffmpeg -i {path.name} -c:v libx264 out.mp4")
         return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
 
 def read_source(src: Source, videos: VideoReader, what: str = "--backgrounds") -> np.ndarray:
-    """(H, W, 3) uint8 RGB pixels of a :class:`Source`."""
+    """(H, W, 3) uint8 RGB pixels of a :class:`Source`; UserError naming it (as ``what``)
+    when they cannot be read."""
     if src.frame is None:
         return read_photo(src.path, what)
-    return videos.frame(src.path, src.frame)
+    return videos.frame(src.path, src.frame, what)

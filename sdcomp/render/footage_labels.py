@@ -77,34 +77,94 @@ def _coco_labels(path: Path, what: str) -> Labels:
             and isinstance(coco.get("annotations", []), list)):
         raise UserError(f"{what} {path}: not a COCO file (needs an 'images' and an "
                         f"'annotations' list)")
+    if not isinstance(coco.get("categories") or [], list):
+        raise UserError(f"{what} {path}: 'categories' is not a list of {{id, name}} records")
     cats = {int(c["id"]): str(c.get("name", c["id"])) for c in coco.get("categories") or []
-            if isinstance(c, dict) and isinstance(c.get("id"), int)}
-    by_image: dict[object, list] = {}
-    for a in coco.get("annotations") or []:
-        box = a.get("bbox") if isinstance(a, dict) else None
-        if not (isinstance(box, (list, tuple)) and len(box) >= 4):
-            raise UserError(f"{what} {path}: an annotation has no 'bbox' [x, y, w, h]")
-        try:
-            row = [float(v) for v in box[:4]] + [float(a.get("category_id", 0))]
-        except (TypeError, ValueError):
-            raise UserError(f"{what} {path}: a bbox is not numbers: {box!r}") from None
-        if not all(map(math.isfinite, row)):
-            raise UserError(f"{what} {path}: a bbox is not finite: {box!r}")
-        by_image.setdefault(a.get("image_id"), []).append(row)
+            if isinstance(c, dict) and _is_int(c.get("id"))}
+    images = _coco_images(coco["images"], path, what)
+    by_image: dict[int, list] = {}
+    for k, a in enumerate(coco.get("annotations") or []):
+        image_id, row = _coco_annotation(a, k, path, what)
+        if image_id not in images:
+            raise UserError(f"{what} {path}: {_name(a, k)} refers to image_id {image_id!r}, "
+                            f"which no image record has; fix the ids or give the matching "
+                            f"file")
+        if cats and int(row[4]) not in cats:
+            raise UserError(f"{what} {path}: {_name(a, k)} has category_id {int(row[4])}, "
+                            f"which is not among its categories {sorted(cats)}")
+        by_image.setdefault(image_id, []).append(row)
     out = Labels(categories=cats, source=str(path))
-    for im in coco["images"]:
-        if not (isinstance(im, dict) and isinstance(im.get("file_name"), str)):
-            raise UserError(f"{what} {path}: an image record has no 'file_name'")
-        rows = np.asarray(by_image.get(im.get("id"), []), np.float64).reshape(-1, 5)
+    for image_id, im in images.items():
+        rows = np.asarray(by_image.get(image_id, []), np.float64).reshape(-1, 5)
         w, h = im.get("width"), im.get("height")
-        size = (int(w), int(h)) if isinstance(w, int) and isinstance(h, int) and w > 0 and h > 0 \
-            else None
+        size = ((int(w), int(h)) if isinstance(w, (int, float)) and isinstance(h, (int, float))
+                and _is_int(w) and _is_int(h) and w > 0 and h > 0 else None)
         name = im["file_name"]
-        key = Path(name.replace("\\", "/")).stem
+        key = Path(name.replace("\\", "/")).stem  # only the stem: a path in it is never opened
         meta: dict = im["meta"] if isinstance(im.get("meta"), dict) else {}
         out.frames[key] = FrameLabels(rows[:, :4], rows[:, 4].astype(np.int64), size, name,
                                       meta)
     return out
+
+
+def _is_int(v: object) -> bool:
+    """Whether ``v`` is a whole number (an int, or a float such as 3.0 some tools write)."""
+    return (isinstance(v, int) and not isinstance(v, bool)) or (
+        isinstance(v, float) and v.is_integer())
+
+
+def _name(record: object, k: int) -> str:
+    """How an error names the ``k``-th (0-based) annotation: by its id where it has one."""
+    rid = record.get("id") if isinstance(record, dict) else None
+    return f"annotation id {rid}" if _is_int(rid) else f"annotation #{k + 1}"
+
+
+def _coco_images(records: list, path: Path, what: str) -> dict[int, dict]:
+    """A COCO file's image records by id; UserError for a record without an integer ``id``
+    or a ``file_name``, a repeated id, or two records whose file names share a stem (frames
+    are matched by it)."""
+    out: dict[int, dict] = {}
+    stems: dict[str, str] = {}
+    for k, im in enumerate(records):
+        if not (isinstance(im, dict) and isinstance(im.get("file_name"), str)):
+            raise UserError(f"{what} {path}: image record #{k + 1} has no 'file_name'")
+        if not _is_int(im.get("id")):
+            raise UserError(f"{what} {path}: image {im['file_name']!r} has no integer 'id'")
+        im = {**im, "id": int(im["id"])}
+        if im["id"] in out:
+            raise UserError(f"{what} {path}: image id {im['id']} is used twice "
+                            f"({out[im['id']]['file_name']!r}, {im['file_name']!r})")
+        stem = Path(im["file_name"].replace("\\", "/")).stem
+        if stem in stems:
+            raise UserError(f"{what} {path}: images {stems[stem]!r} and {im['file_name']!r} "
+                            f"share the name {stem!r}; frames are matched by file name "
+                            f"without folder and extension: rename one")
+        stems[stem] = im["file_name"]
+        out[im["id"]] = im
+    return out
+
+
+def _coco_annotation(a: object, k: int, path: Path, what: str) -> tuple[int, list[float]]:
+    """(image_id, [x, y, w, h, category_id]) of the ``k``-th annotation record; UserError
+    naming it when a field is missing, not a number, not finite or a size is negative."""
+    if not isinstance(a, dict):
+        raise UserError(f"{what} {path}: annotation #{k + 1} is not a record ({a!r:.40})")
+    box = a.get("bbox")
+    if not (isinstance(box, (list, tuple)) and len(box) >= 4):
+        raise UserError(f"{what} {path}: {_name(a, k)} has no 'bbox' [x, y, w, h]")
+    for key in ("image_id", "category_id"):
+        if not _is_int(a.get(key)):
+            raise UserError(f"{what} {path}: {_name(a, k)} has no integer {key!r}")
+    try:
+        row = [float(v) for v in box[:4]] + [float(a["category_id"])]
+    except (TypeError, ValueError):
+        raise UserError(f"{what} {path}: a bbox is not numbers: {box!r}") from None
+    if not all(map(math.isfinite, row)):
+        raise UserError(f"{what} {path}: a bbox is not finite: {box!r}")
+    if row[2] < 0 or row[3] < 0:
+        raise UserError(f"{what} {path}: {_name(a, k)} has a negative size, bbox {box!r} "
+                        f"(COCO boxes are [x, y, width, height])")
+    return int(a["image_id"]), row
 
 
 def _yolo_labels(folder: Path, what: str) -> Labels:
@@ -131,8 +191,9 @@ def _yolo_labels(folder: Path, what: str) -> Labels:
             except ValueError:
                 cls, vals = -1, []
             if cls < 0 or len(vals) < 4 or (len(vals) > 4 and len(vals) % 2) or not all(
-                    map(math.isfinite, vals)):
-                raise UserError(f"{what}: {f}:{n}: expected 'class cx cy w h' (normalised) "
+                    map(math.isfinite, vals)) or (len(vals) == 4 and min(vals[2:]) < 0):
+                raise UserError(f"{what}: {f}:{n}: expected 'class cx cy w h' (normalised, "
+                                f"sizes >= 0) "
                                 f"or 'class x1 y1 x2 y2 ...', got {line.strip()[:60]!r}")
             if len(vals) == 4:
                 cx, cy, bw, bh = vals

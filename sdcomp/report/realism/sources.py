@@ -52,6 +52,7 @@ class Frame:
         gsd: metres per pixel at the image centre, or None when unknown.
         gsd_source: where ``gsd`` comes from: "meta", "camera", "user" or "unknown".
         valid: callable (H, W) -> ((H, W) bool valid-pixel mask or None for all, how) or None.
+        what: how the command names the real frames in its errors (``--real``, ``FRAMES``).
     """
 
     path: Path
@@ -65,6 +66,7 @@ class Frame:
     source: Source | None = None
     camera: dict = field(default_factory=dict)
     categories: list | None = None
+    what: str = "--real"
 
 
 @dataclass
@@ -113,19 +115,18 @@ def read_mask(path: Path) -> np.ndarray | None:
 
 
 def frame_rgb(frame: Frame) -> np.ndarray | None:
-    """(H, W, 3) uint8 RGB of a :class:`Frame` (a video frame read from its video), None when
-    it cannot be read. Only the pixels: :func:`load_frame` also reads the mask and valid
-    pixels."""
+    """(H, W, 3) uint8 RGB of a :class:`Frame`; None when a generated frame's image cannot be
+    read (skipped and counted). A real frame that cannot be read is a UserError naming it,
+    the rule of every command for the user's frames (:mod:`sdcomp.render.footage`). Only the
+    pixels: :func:`load_frame` also reads the mask and valid pixels."""
     if frame.source is not None:
-        try:
-            return read_source(frame.source, _VIDEOS, "--real")
-        except UserError:
-            return None
+        return read_source(frame.source, _VIDEOS, frame.what)
     return read_rgb(frame.path)
 
 
 def load_frame(frame: Frame) -> Loaded | None:
-    """Read a :class:`Frame`; None when its image cannot be read. A real frame's
+    """Read a :class:`Frame`; None when a generated frame's image cannot be read (a real
+    frame's is a UserError, :func:`frame_rgb`). A real frame's
     painted-out regions (:func:`~.painted.painted_mask`) are invalid pixels."""
     rgb = frame_rgb(frame)
     if rgb is None:
@@ -239,7 +240,7 @@ def load_real(path: str | Path, labels: str | Path | None = None, gsd: float | N
         names = ([lab.categories.get(int(c), str(c)) for c in fl.categories]
                  if fl is not None and lab is not None else ([] if lab is not None else None))
         frames.append(Frame(s.path, 0, boxes, None, dict(fl.meta) if fl else {}, source=s,
-                            categories=names))
+                            categories=names, what=option_names[0]))
     if lab is not None and not frames:
         raise UserError(f"{option_names[1]} {labels}: none of the {len(sources)} frames of "
                         f"{path} is listed in it (matched by file name without extension; "
