@@ -386,6 +386,16 @@ def test_cli_writes_a_config_generate_reads(tmp_path, sprites_dir, capsys):
     rc = run_cli(main, ["generate", "--config", str(out), "--dump-config"])
     dumped = capsys.readouterr().out
     assert rc == 0 and 'water = ["turbid"' in dumped and 'altitude = 30' in dumped, dumped
+    # at another size and aspect than fitted: one line says what changes (issue 48, item 4)
+    rc = run_cli(main, ["generate", "--config", str(out), "--width", "1920", "--height",
+                        "1080", "--dump-config"])
+    err = capsys.readouterr().err
+    assert rc == 0 and f"fitted at {SIZE}x{SIZE}" in err and "aspect differs" in err, err
+    assert err.count("\n") == 1 and "sdcomp fit --size 1920" in err
+    rc = run_cli(main, ["generate", "--config", str(out), "--size", str(2 * SIZE),
+                        "--dump-config"])
+    err = capsys.readouterr().err
+    assert rc == 0 and "fitted at" in err and "aspect" not in err, err
     report = (out.parent / "fit_report.md").read_text()
     assert "| luminance |" in report and "geometry from the footage" in report
     data = json.loads((out.parent / "fit_report.json").read_text())

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..errors import UserError, run_cli
 from ..fitting.api import fit_footage
-from ..fitting.config_file import config_text, write_config
+from ..fitting.config_file import HEADER, config_text, write_config
 from ..fitting.report import write_report
 from ..fitting.search import CANDIDATES
 from ..pipeline import DEFAULT_SPRITES
@@ -103,7 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                          args.max_frames, args.renders, args.sprites, groups, args.passes,
                          args.seed, log=log.info, fov=args.fov)
     fitted = "altitude" if "not fitted" not in result.geometry else ""
-    header = [f"sdcomp fit of {args.frames}: {result.footage.frames} frames, "
+    header = [f"{HEADER}{args.frames}: {result.footage.frames} frames, "
               f"{result.search.seconds:.0f} s", result.geometry,
               "use: sdcomp generate --config THIS_FILE --out DIR (flags after it override it)"]
     config = write_config(args.out, config_text(result.config, header, bool(fitted)))

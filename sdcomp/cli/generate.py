@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ..atlas.cache import sprites_folder
 from ..errors import UserError, run_cli
+from ..fitting.config_file import size_warning
 from ..pipeline import DEFAULT_SPRITES
 from ..run.engines import ENGINES
 from ..run.options import RunOptions
@@ -168,6 +169,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     log = setup_logging(args.quiet, args.verbose)
     config = config_from_args(args)
+    if args.config and (line := size_warning(args.config, config.width, config.height)):
+        log.warning(line)
     if args.dump_config:
         sys.stdout.write(config.to_toml())
         return 0

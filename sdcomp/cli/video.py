@@ -15,6 +15,7 @@ import time
 from collections.abc import Sequence
 
 from ..errors import UserError, run_cli
+from ..fitting.config_file import size_warning
 from ..run.video import run_video
 from ..scene.config import GeneratorConfig, load_toml
 from ..scene.params import Param
@@ -108,6 +109,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     log = setup_logging(args.quiet, args.verbose)
     video = video_from_args(args)
+    g = video.generator
+    if args.config and (line := size_warning(args.config, g.width, g.height)):
+        log.warning(line)
     if args.dump_config:
         sys.stdout.write(dump(video))
         return 0

@@ -38,6 +38,10 @@ KEYS: tuple[tuple[str, str], ...] = (
 )
 
 
+#: how the first line of a config written by ``sdcomp fit`` begins
+HEADER = "sdcomp fit of "
+
+
 def config_text(config: GeneratorConfig, header: list[str], geometry_fitted: bool) -> str:
     """The TOML text of the fitted keys of ``config`` (see :data:`KEYS`), after ``header``
     comment lines; altitude and pitch only when ``geometry_fitted``, the camera only when
@@ -67,3 +71,35 @@ def write_config(path: str | Path, text: str) -> GeneratorConfig:
         tmp.write_text(text)
         config = GeneratorConfig.from_mapping(load_toml(tmp), source=str(path))
     return config
+
+
+def fitted_size(path: str | Path) -> tuple[int, int] | None:
+    """(width, height) pixels a config written by ``sdcomp fit`` was fitted at (its noise,
+    blur and compression were measured at that size), or None for any other config file."""
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    if not text.startswith(f"# {HEADER}"):
+        return None
+    data = load_toml(path)
+    w, h = data.get("width"), data.get("height")
+    return (w, h) if isinstance(w, int) and isinstance(h, int) else None
+
+
+def size_warning(path: str | Path, width: int, height: int) -> str | None:
+    """One line saying what changes when a config fitted at another size (or aspect) than
+    ``width`` x ``height`` pixels generates at that size; None when it is no fitted config
+    or the sizes agree."""
+    size = fitted_size(path)
+    if size is None or size == (width, height):
+        return None
+    fw, fh = size
+    line = (f"--config {path} was fitted at {fw}x{fh} px; generating {width}x{height}: the "
+            f"look's noise, blur and compression were fitted at {fw}x{fh} and are drawn for "
+            f"the new size (to fit them at it: sdcomp fit --size {max(width, height)})")
+    if abs(width / height - fw / fh) > 0.01 * fw / fh:
+        line += (f"; the aspect differs from the footage's ({width / height:.2f} vs "
+                 f"{fw / fh:.2f}), so the camera's pixels are not square and every object "
+                 f"is stretched: keep {fw}:{fh}")
+    return line
