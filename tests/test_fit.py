@@ -595,3 +595,17 @@ def test_geometry_line_says_when_the_camera_stretches_the_footages_objects():
     assert "0.84 times as tall" in wide and "--fov" in wide, wide
     assert "times as tall" not in how(480, 320)
     assert "times as tall" not in how(512, 288, 74.4)
+
+
+def test_water_line_says_why_the_config_keeps_another_water():
+    """The report's Water line and the config's water never contradict each other silently
+    (it read "turbid 57, algae 3" beside water = ["algae"])."""
+    from sdcomp.fitting.report import water_line
+
+    votes = {"turbid": 57, "algae": 3, "ocean": 0}
+    kept = water_line(votes, ("algae",))
+    assert "chose turbid" in kept and "keeps algae" in kept and "no closer" in kept
+    assert "chose" not in water_line(votes, ("turbid",))
+    both = {"turbid": 30, "algae": 30}
+    assert "chose" not in water_line(both, ("algae", "turbid"))
+    assert "chose algae, turbid" in water_line(both, ("turbid",))

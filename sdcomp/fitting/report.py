@@ -15,6 +15,7 @@ from ..scene.config import GeneratorConfig
 from ..util.files import atomic_write_bytes, write_png
 from .api import FitResult
 from .config_file import KEYS
+from .search import TYPE_SHARE
 from .stats import EXTRA, SCALES, STATS, UNITS, distance
 
 CROP_PX = 128  #: side of the report picture's crops, pixels of the working size
@@ -73,8 +74,7 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
     default = GeneratorConfig()
     for key, _ in KEYS:
         lines.append(f"| {key} | {_value(result.config, key)} | {_value(default, key)} |")
-    lines += ["", f"Water: frames nearest each type's colour (the last inversion): "
-                  f"{s.water_votes}.", ""]
+    lines += ["", water_line(s.water_votes, result.config.water), ""]
     if s.cast is not None:
         c = s.cast
         lines += [f"The footage's highlights carry a colour cast: the search ran again from "
@@ -156,3 +156,18 @@ def _json(o):
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     return str(o)
+
+
+def water_line(votes: dict[str, int], water: tuple[str, ...]) -> str:
+    """The report's Water line: how many frames were nearest each type's colour in the last
+    inversion and, where the config's water is not what that inversion chose, why (the fit
+    keeps a water the inversion does not beat under the fitted camera and light)."""
+    line = f"Water: frames nearest each type's colour (the last inversion): {votes}."
+    total = sum(votes.values())
+    chosen = {n for n, v in votes.items() if v >= TYPE_SHARE * total} or (
+        {max(votes, key=lambda n: votes[n])} if votes else set())
+    if votes and chosen != set(water):
+        line += (f" That inversion chose {', '.join(sorted(chosen))}, but the config keeps "
+                 f"{', '.join(water)}: rendered under the fitted camera and light, the "
+                 f"inversion's water was no closer to the footage's statistics.")
+    return line
