@@ -83,13 +83,11 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     w, h = working_size(s0.width, s0.height, size)
     rows: list[dict[str, float] | None] = []
     crops: list[np.ndarray] = []
-    alts, pitches, unread, logs, skies, painted = [], [], 0, 0, 0, 0
+    alts, pitches, logs, skies, painted = [], [], 0, 0, 0
     fovs: list[float] = []
     for frame in fs.frames:
-        loaded = load_frame(frame)
-        if loaded is None:
-            unread += 1
-            continue
+        loaded = load_frame(frame)  # a frame it cannot read stops the fit, naming it
+        assert loaded is not None  # (None is only for a generated set's missing images)
         meta, logged = _frame_meta(frame)
         logs += logged
         alts.append(num(meta, ALTITUDE_KEY))
@@ -122,8 +120,7 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
         (len(fovs), f"field of view of {len(fovs)} photos from their EXIF (35 mm equivalent "
                     f"focal length): {out.fov} degrees diagonally"),
         (skies, f"sky kept out of {skies} frames (their pitch and field of view)"),
-        (painted, f"painted-out (black) regions kept out of {painted} frames"),
-        (unread, f"{unread} frames could not be read")) if n]
+        (painted, f"painted-out (black) regions kept out of {painted} frames")) if n]
     return out
 
 
