@@ -14,7 +14,6 @@ from .masks import (
     Instance,
     Measured,
     amodal_masks,
-    instance_map,
     label_map,
     measure,
 )
@@ -27,5 +26,5 @@ from .records import (
 )
 
 __all__ = ["MASK_THRESHOLD", "AnnotationRule", "Frame", "Instance", "Measured", "amodal_masks",
-           "instance_map", "label_map", "measure", "object_annotations", "coco_annotations",
+           "label_map", "measure", "object_annotations", "coco_annotations",
            "ignore_annotations", "image_meta", "camera_record"]

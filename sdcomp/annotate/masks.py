@@ -125,20 +125,6 @@ class Frame:
         return self.scene.gsd / float(self.camera.get("zoom", 1.0))
 
 
-def instance_map(scene: Scene, layers: list[Layer], rule: AnnotationRule
-                 ) -> tuple[np.ndarray, Measured]:
-    """(instances (H, W) uint16, what :func:`measure` finds: the labelled objects in
-    placement order with ids 1..N, the ignored ones, the objects of interest dropped) of the
-    composited ``layers`` (far to near, final weights) of ``scene``, as the renderer's
-    pinhole image has them: :func:`label_map` then :func:`measure` (the generator records
-    the camera's image in between, whose lens moves the labels)."""
-    instances, objs = label_map(scene, layers)
-    amodal = amodal_masks(instances.shape, objs) if rule.amodal else None
-    found = measure(instances, objs, rule, amodal, moved=False)
-    found.dropped += scene.count(Role.OBJECT) - len(objs)
-    return instances, found
-
-
 def label_map(scene: Scene, layers: list[Layer]) -> tuple[np.ndarray, list[Layer]]:
     """(labels (H, W) uint16, the layers of the objects of interest in placement order):
     the k-th of them labels ``k + 1`` the pixels where it passes the mask rule

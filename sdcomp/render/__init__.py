@@ -4,7 +4,7 @@
 (:mod:`~sdcomp.render.background`: water, floor, :mod:`~sdcomp.render.land` and sky, or
 :mod:`~sdcomp.render.photos`), the sprite layers (:mod:`~sdcomp.render.layers`), compositing
 (:mod:`~sdcomp.render.composite`) and camera effects (:mod:`~sdcomp.render.effects`), with the
-light of :mod:`~sdcomp.render.lighting`, the optics of :mod:`~sdcomp.render.optics` and the
+light of :mod:`~sdcomp.render.lighting`, the optics of :mod:`~sdcomp.render.water.optics` and the
 ground textures of :mod:`~sdcomp.render.textures` seen through :mod:`~sdcomp.render.ground`.
 """
 
