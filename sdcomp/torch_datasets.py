@@ -385,5 +385,12 @@ class GeneratedCoco(torch.utils.data.Dataset):
                             f"generate with --resume to redraw it") from None
 
 
+def __getattr__(name: str) -> Any:  # RealDetection, MixedDetection: sdcomp.torch_real
+    if name in ("RealDetection", "MixedDetection"):
+        from . import torch_real
+        return getattr(torch_real, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = ["SyntheticDetection", "GeneratedCoco", "Batch", "collate", "to_sample",
            "fill_empty_target"]

@@ -17,7 +17,8 @@ PACKAGE = ROOT / "sdcomp"
 STAGES = ("util", "assets", "atlas", "scene", "render", "annotate", "io", "run", "cli")
 #: beside the flow: what each may import (besides util and errors)
 BESIDE = {"pipeline": "annotate", "clips": "annotate", "torch_clips": "run",
-          "report": "io", "torch_datasets": "run", "bench": "cli", "fitting": "io"}
+          "report": "io", "torch_datasets": "run", "torch_real": "run", "bench": "cli",
+          "fitting": "io"}
 MAX_LINES = 400
 
 
