@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import UserError
 from .mesh import ColoredMesh, centred
+from .mesh_faces import check_mesh_memory
 
 SUPPORTED = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
 _TEXT_FORMATS = (".stl", ".obj", ".off")  # may be text in a non-UTF-8 encoding
@@ -99,13 +100,15 @@ def load_mesh_file(path: str | Path, *, units: str = "m", up: str = "auto",
             default a quarter of its height.
 
     Raises:
-        UserError: missing or unreadable file, unsupported format, no triangles, or a size
-            over 1 km or under 1 mm (the message suggests the right ``--units``).
+        UserError: missing or unreadable file, unsupported format, no triangles, more
+            triangles than this machine's memory can load (:mod:`sdcomp.assets.mesh_faces`),
+            or a size over 1 km or under 1 mm (the message suggests the right ``--units``).
     """
     path = Path(path)
     check_read_options(units, up)
     suffix = path.suffix.lower()
     _check_mesh_path(path, suffix)
+    check_mesh_memory(path, suffix)  # before trimesh allocates what the file claims
     geoms = _read_geometries(path, suffix)
     if not geoms:
         raise UserError(f"mesh file {str(path)!r} contains no triangles")

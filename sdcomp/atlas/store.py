@@ -40,6 +40,7 @@ from ..util.files import atomic_path, atomic_write_bytes
 from ..util.heap import keep_freed_memory
 from ..util.pool import imap_ordered
 from ..util.progress import Progress
+from .budget import fitting_workers
 from .occlusion import sky_maps, sprite_occlusion
 from .poses import PoseGrid, nearest_pose
 from .raster import Sprite, render
@@ -194,14 +195,17 @@ def build_atlas(mesh: ColoredMesh, config: AtlasConfig = AtlasConfig(), *,
     """Render ``mesh`` at every pose of ``config.grid`` (in ``workers`` processes of
     :func:`sdcomp.util.pool.imap_ordered`, or in this one when ``workers`` is 1).
 
-    The result does not depend on the number of workers. Freed sub-pixel buffers stay in
+    The result does not depend on the number of workers: they are fewer where more would
+    not fit in the machine's memory, and a build that does not fit with one is refused
+    (:mod:`sdcomp.atlas.budget`). Freed sub-pixel buffers stay in
     the heap (:func:`sdcomp.util.heap.keep_freed_memory`): without it page faults took a
     third of a build's time.
     """
     keep_freed_memory()
     poses = config.grid.poses()
     mpp = metres_per_pixel(mesh, config)
-    workers = max(1, min(workers or os.cpu_count() or 1, len(poses)))
+    workers = fitting_workers(mesh.name, len(mesh.faces), config.size, config.supersample,
+                              len(poses), max(1, min(workers or os.cpu_count() or 1, len(poses))))
     bar = Progress(len(poses), f"atlas {mesh.name}", enabled=progress, unit="poses")
     one = functools.partial(_render_pose, mesh, config.size, mpp, config.supersample)
     results = map(one, poses) if workers == 1 else imap_ordered(

@@ -28,6 +28,7 @@ from ..errors import UserError
 from ..pipeline import Generator, cached_generator
 from ..scene.config import GeneratorConfig
 from ..util.progress import Progress
+from .frame_memory import check_run_memory
 from .local import run
 from .merge import merge
 from .options import RunOptions
@@ -125,6 +126,8 @@ def run_dask(config: GeneratorConfig, options: RunOptions, scheduler: str | None
 
 def _run(config: GeneratorConfig, options: RunOptions, scheduler: str | None,
          shards: int | None, Client, LocalCluster, as_completed) -> dict:  # noqa: N803
+    if scheduler is None:  # a local cluster: its workers share this machine's memory
+        check_run_memory(config.width, config.height, options.workers, config.n)
     # build or check the sprite atlases (and every input) once, here, before any task
     Generator(config, options.sprites_dir, progress=options.progress)
     work, finished = _prepare(config, options)

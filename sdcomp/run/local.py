@@ -28,6 +28,7 @@ from ..pipeline import Generator, cached_generator
 from ..scene.config import GeneratorConfig
 from ..util.pool import imap_ordered, note
 from ..util.progress import Progress
+from .frame_memory import check_run_memory
 from .options import RunOptions, run_indices
 from .output import (
     on_sigterm,
@@ -98,8 +99,11 @@ def run(config: GeneratorConfig, options: RunOptions, gen: Generator | None = No
     A file-system error (disk full, no permission) becomes a one-line UserError naming the
     file and how many images are kept; a worker that dies,
     :class:`sdcomp.util.pool.WorkerDied`. Neither leaves a partial file under a final name,
-    and ``--resume`` continues the run.
+    and ``--resume`` continues the run. A run that would need more memory than the machine
+    has (:mod:`sdcomp.run.frame_memory`) is refused first, before anything is written.
     """
+    check_run_memory(config.width, config.height, options.workers,
+                     len(run_indices(config, options.shard)))
     try:
         if gen is None:  # first: a bad mesh or backgrounds folder must not leave files behind
             gen = Generator(config, options.sprites_dir, progress=options.progress)

@@ -39,6 +39,7 @@ from ..scene.video import VideoConfig, sequence_split
 from ..util import files
 from ..util.pool import imap_ordered, note
 from ..util.progress import Progress
+from .frame_memory import check_run_memory
 from .options import RunOptions
 from .output import (
     check_same_shard,
@@ -106,7 +107,11 @@ def run_video(video: VideoConfig, options: RunOptions,
               clips: ClipGenerator | None = None) -> dict:
     """Make the sequences of ``video`` in ``options.out``; returns the counts. Ctrl-C,
     SIGTERM or an error stops after writing the files of the finished sequences; a
-    file-system error becomes a one-line UserError; ``--resume`` continues."""
+    file-system error becomes a one-line UserError; ``--resume`` continues. A run that
+    would need more memory than the machine has is refused first, writing nothing."""
+    g = video.generator
+    check_run_memory(g.width, g.height, options.workers,
+                     len(sequence_indices(video, options.shard)) * video.frames, video=True)
     try:
         clips = clips or ClipGenerator(video, options.sprites_dir, progress=options.progress)
         done = prepare_clips(video, options)

@@ -27,6 +27,7 @@ from .dask_engine import (
     open_client,
     submit_shards,
 )
+from .frame_memory import check_run_memory
 from .options import RunOptions
 from .output import on_sigterm, os_error_message, restore_sigterm
 from .shards import shard_folder
@@ -51,6 +52,10 @@ def run_video_dask(video: VideoConfig, options: RunOptions, scheduler: str | Non
     """Make the sequences of ``video`` in ``options.out`` on a Dask cluster (at
     ``scheduler``, else a local one of ``options.workers`` processes); returns the counts."""
     Client, LocalCluster, as_completed = dask_modules(options)  # noqa: N806
+    if scheduler is None:  # a local cluster: its workers share this machine's memory
+        g = video.generator
+        check_run_memory(g.width, g.height, options.workers, video.sequences * video.frames,
+                         video=True)
     try:
         ClipGenerator(video, options.sprites_dir, progress=options.progress)  # atlases, once
         work = _prepare(options)
