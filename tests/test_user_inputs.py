@@ -182,3 +182,19 @@ def test_ffmpeg_says_nothing_of_its_own_on_a_damaged_video(tmp_path):
     assert proc.returncode == 2, proc.stderr
     one_line_error(proc.stderr)
     assert "truncated.mp4" in proc.stderr
+
+
+@pytest.mark.parametrize("name", ["ok0.jpg", "v.mp4"])
+def test_a_frame_larger_than_the_machine_can_hold_is_refused_with_its_size(name, tmp_path,
+                                                                         monkeypatch):
+    """On a machine of 200 kB (SDCOMP_MEMORY_BYTES), a 160 x 120 frame (16 bytes a pixel
+    while it is read: 300 kB) is refused before it is decoded, its size named."""
+    from .user_inputs import write_video
+    frames = frames_folder(tmp_path, n=1 if name.endswith("jpg") else 0)
+    if name.endswith("mp4"):
+        write_video(frames / name, 3)
+    monkeypatch.setenv("SDCOMP_MEMORY_BYTES", "200000")
+    with pytest.raises(UserError, match=rf"{name} \(160 x 120 pixel.*more than this machine"):
+        list_sources(frames, "--real")
+    monkeypatch.setenv("SDCOMP_MEMORY_BYTES", "400000")
+    assert len(list_sources(frames, "--real")) in (1, 3)

@@ -76,7 +76,7 @@ BAD_PHOTOS: dict[str, Callable[[Path], None]] = {
 }
 
 
-def _video(path: Path, n: int, fourcc: str = "mp4v") -> None:
+def write_video(path: Path, n: int, fourcc: str = "mp4v") -> None:
     w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), 10, (W, H))
     for k in range(n):
         w.write(scene(k))
@@ -84,14 +84,14 @@ def _video(path: Path, n: int, fourcc: str = "mp4v") -> None:
 
 
 def _cut(path: Path, n: int, fourcc: str) -> None:
-    _video(path, n, fourcc)
+    write_video(path, n, fourcc)
     raw = path.read_bytes()
     path.write_bytes(raw[: len(raw) // 2])
 
 
 #: videos no command can use
 BAD_VIDEOS: dict[str, Callable[[Path], None]] = {
-    "noframes.mp4": lambda p: _video(p, 0),
+    "noframes.mp4": lambda p: write_video(p, 0),
     "truncated.mp4": lambda p: _cut(p, 30, "mp4v"),  # its index (moov) is lost
     "cutshort.avi": lambda p: _cut(p, 30, "MJPG"),  # opens, claims 30 frames, has ~10
 }

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from ..errors import UserError
+from ..util.memory import check_fits
 
 # FFmpeg (inside OpenCV's video reader) prints its complaints about a damaged file to stderr
 # itself; sdcomp reports a bad file in one line of its own (a user's setting wins)
@@ -43,6 +44,9 @@ VIDEO_EXTENSIONS = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".ts", ".web
 #: largest frame accepted, pixels (a 150 MP photo is 450 MB decoded; a header claiming more
 #: is most likely a decompression bomb, or at least not worth decoding for a background)
 MAX_PIXELS = 150_000_000
+#: peak bytes per pixel of reading one frame: the file's decode (3), its RGB copy (3), a
+#: crop or resize of it and the float32 working copies the commands make of that (~10)
+BYTES_PER_FRAME_PX = 16
 
 
 @dataclass(frozen=True)
@@ -96,6 +100,8 @@ def check_photo(path: Path, what: str = "--backgrounds") -> tuple[int, int]:
                         f"downscale or remove it")
     if not cv2.haveImageReader(str(path)):
         raise UserError(f"{what}: cannot read {path} as an image; remove or replace it")
+    check_fits(w * h * BYTES_PER_FRAME_PX, f"{what}: {path} ({w} x {h} pixels)",
+               "downscale it")
     if _truncated(_ends(path), path):
         raise UserError(_truncated_message(path, what))
     return w, h
@@ -137,6 +143,8 @@ def video_info(path: Path, what: str = "--backgrounds") -> tuple[int, int, int]:
         if w * h > MAX_PIXELS:
             raise UserError(f"{what}: {path} has {w} x {h} pixel frames, more than "
                             f"{MAX_PIXELS // 1_000_000} megapixels; downscale it")
+        check_fits(w * h * BYTES_PER_FRAME_PX, f"{what}: {path} ({w} x {h} pixel frames)",
+                   f"downscale it, e.g. ffmpeg -i {path.name} -vf scale=iw/2:-2 out.mp4")
         ok, first = cap.read()
         if n <= 0 or not ok or first is None:
             raise UserError(f"{what}: {path} has no frames OpenCV can count and decode; "
