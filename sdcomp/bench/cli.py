@@ -34,6 +34,8 @@ from ..cli import prog
 from ..errors import UserError, run_cli
 from ..pipeline import DEFAULT_SPRITES
 from .detector import BACKBONES
+from .fewshot_cli import cmd_fewshot as fewshot_command
+from .fewshot_cli import fewshot_parser
 from .grid import PRESETS, GridSpec, preset
 from .train import OPTIMIZERS
 
@@ -123,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("report", help="write report.md and plots of a results folder")
     r.add_argument("results", metavar="DIR", help="results folder")
     _sim2real_parser(sub)
+    fewshot_parser(sub, TRAIN_FLAGS)
     return p
 
 
@@ -315,14 +318,24 @@ def cmd_report(args) -> int:
     return 0
 
 
-def cmd_sim2real(args) -> int:
-    from .sim2real import Sim2RealSpec, run_sim2real
-    from .train import TrainConfig
+def _train_flags(args) -> dict:
+    """The TrainConfig fields the training flags give (sim2real, fewshot)."""
     train = {d: getattr(args, d) for d in TRAIN_FLAGS if getattr(args, d, None) is not None}
     if "train_seed" in train:
         train["seed"] = train.pop("train_seed")
     if args.hflip is not None:
         train["hflip"] = args.hflip
+    return train
+
+
+def cmd_fewshot(args) -> int:
+    return fewshot_command(args, _train_flags(args), _context(args, Path(args.out)).device)
+
+
+def cmd_sim2real(args) -> int:
+    from .sim2real import Sim2RealSpec, run_sim2real
+    from .train import TrainConfig
+    train = _train_flags(args)
     out = Path(args.out)
     ctx = _context(args, out)
     spec = Sim2RealSpec(tuple(map(Path, args.train)), Path(args.real), Path(args.real_labels),
@@ -349,7 +362,7 @@ def _print_metrics(cell_id: str, test: dict, val: dict | None) -> None:
 
 
 COMMANDS = {"grid": cmd_grid, "train": cmd_train, "eval": cmd_eval, "report": cmd_report,
-            "sim2real": cmd_sim2real}
+            "sim2real": cmd_sim2real, "fewshot": cmd_fewshot}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
