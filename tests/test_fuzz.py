@@ -325,6 +325,9 @@ EXTREMES = [
     # a 9 x 1 frame cut from a 7 x 9 photo (found by the campaign: an empty crop crashed)
     {"n": 1, "seed": 1406, "width": 9, "height": 1, "altitude": 1.0, "pitch": 15.0,
      "heading": 0.0, "count": 0, "clutter": 0.0, "backgrounds": BG, "sensor_px": (1, 1)},
+    # a 5 x 125 frame whose crop spans a photo's height (found by the campaign: rounding)
+    {"n": 1, "seed": 0, "width": 5, "height": 125, "altitude": 1.0, "pitch": 2.0,
+     "heading": 0.0, "count": 0, "clutter": 0.0, "val_fraction": 0.0, "backgrounds": BG},
     # a 1 x 1 frame that is wholly an ignore region (found by the campaign)
     {"n": 1, "seed": 0, "width": 1, "height": 1, "altitude": 1.0, "pitch": 77.0, "count": 1,
      "draft": -1.0},
@@ -333,7 +336,7 @@ EXTREMES = [
 
 @pytest.mark.parametrize("mapping", EXTREMES, ids=["overflow", "subpixel", "horizon-high",
                                                    "horizon-low", "1x1", "zero", "crowd",
-                                                   "thin-photo", "1x1-ignored"])
+                                                   "thin-photo", "tall-crop", "1x1-ignored"])
 def test_extreme_runs(mapping, sprites_dir, photos):
     check_run(mapping, sprites_dir, photos)
 
@@ -362,15 +365,11 @@ def test_8000_square_frame(sprites_dir):
 # photos of any kind damaged any way, COCO files with any field changed, YOLO lines of any
 # text, read as every command reads them and through whole commands (tests/user_inputs.py)
 
-INPUTS = settings(max_examples=40, deadline=None, derandomize=True,
-                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-INPUTS_SLOW = settings(max_examples=500, deadline=None,
-                       suppress_health_check=[HealthCheck.too_slow,
-                                              HealthCheck.data_too_large])
-COMMANDS = settings(max_examples=6, deadline=None, derandomize=True,
-                    suppress_health_check=list(HealthCheck))
-COMMANDS_SLOW = settings(max_examples=20, deadline=None,
-                         suppress_health_check=list(HealthCheck))
+QUIET = list(HealthCheck)
+INPUTS = settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=QUIET)
+INPUTS_SLOW = settings(max_examples=500, deadline=None, suppress_health_check=QUIET)
+COMMANDS = settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=QUIET)
+COMMANDS_SLOW = settings(max_examples=20, deadline=None, suppress_health_check=QUIET)
 
 
 @INPUTS

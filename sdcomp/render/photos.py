@@ -143,8 +143,10 @@ class Backgrounds:
             # magnified footage is blurrier than any real frame (and than the objects)
             cw = max_w * rng.uniform(max(MIN_CROP, min(width / max_w, 1.0)), 1.0)
             ch = cw / aspect
-            x0 = rng.uniform(0, s.width - cw)
-            y0 = rng.uniform(0, s.height - ch)
+            # max(0, ...): where the crop spans the frame, cw / aspect can exceed the
+            # frame's height by a rounding error (a 5 x 125 frame cut from a wide photo)
+            x0 = rng.uniform(0, max(0.0, s.width - cw))
+            y0 = rng.uniform(0, max(0.0, s.height - ch))
             flip = bool(rng.random() < 0.5)
             crop = np.array([x0 / s.width, y0 / s.height, (x0 + cw) / s.width,
                              (y0 + ch) / s.height])
