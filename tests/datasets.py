@@ -2,7 +2,8 @@
 
 :func:`check_intact` is the "nothing corrupt" check after any fault: every file under a final
 name is whole (images and masks decode completely, JSON parses, the COCO files load in
-pycocotools and name only files that exist, the journal reads), masks, boxes and areas agree.
+pycocotools and name only files that exist, the journal reads), masks, boxes and areas agree;
+:func:`check_video_intact` is the same for a video run's folder.
 """
 
 from __future__ import annotations
@@ -23,13 +24,18 @@ import numpy as np
 from pycocotools import mask as mask_utils
 from pycocotools.coco import COCO
 
+from sdcomp.cli.check import main as check_main
 from sdcomp.cli.generate import main
 from sdcomp.errors import run_cli
 from sdcomp.io.journal import read_journal
+from sdcomp.io.mot import read_gt
+from sdcomp.report.check import check_video
 
 REPO = Path(__file__).resolve().parents[1]
 CLI = ("import sys; from sdcomp.errors import run_cli; from sdcomp.generate import main; "
        "sys.exit(run_cli(main, sys.argv[1:]))")
+VIDEO_CLI = ("import sys; from sdcomp.errors import run_cli; from sdcomp.video import main; "
+             "sys.exit(run_cli(main, sys.argv[1:]))")
 PNG_END = b"IEND\xaeB`\x82"
 
 
@@ -155,6 +161,47 @@ def check_intact(root: Path, *, allow_tmp: bool = False, decode: bool = True) ->
     if meta is not None and meta["status"] == "complete":
         assert listed == meta["counts"]["images"]
     return listed
+
+
+def check_video_intact(root: Path, *, allow_tmp: bool = False) -> int:
+    """The :func:`check_intact` of a video run's folder (``sdcomp video --out root``):
+    every frame and mask under a final name is whole, every JSON file parses, every gt.txt
+    reads, and the COCO-video file (where written) passes ``sdcomp check`` (the frames it
+    lists exist and agree with their masks, gt.txt and YOLO lines). Returns the number of
+    frames it lists (all of them when video.json says the run is complete). ``allow_tmp``
+    as for :func:`check_intact`."""
+    if not root.exists():
+        return 0
+    tmp = [p for p in root.rglob(".*.tmp*")]  # .NAME.tmp and an MP4's .NAME.tmp.mp4
+    assert allow_tmp or not tmp, f"temporary files left: {tmp[:5]}"
+    meta = None
+    if (root / "video.json").exists():
+        meta = json.loads((root / "video.json").read_text())
+        assert meta["format"] == "sdcomp-video"
+    for seq in sorted(p for p in root.glob("sdcomp-*") if p.is_dir()):
+        _check_images(seq / "img1", True)
+        _check_masks(seq / "masks", True)
+        for name in ("flight.json", "sequence.json"):
+            if (seq / name).exists():
+                json.loads((seq / name).read_text())
+        if (seq / "gt" / "gt.txt").exists():
+            read_gt(seq / "gt" / "gt.txt")
+    listed = 0
+    coco = root / "annotations" / "instances_video.json"
+    if coco.exists():
+        listed = len(json.loads(coco.read_text())["images"])
+        problems = check_video(root, workers=1).problems
+        assert not problems, problems[:5]
+    if meta is not None and meta["status"] == "complete":
+        assert listed == meta["counts"]["frames"]
+    return listed
+
+
+def sdcomp_check(folder: Path) -> str:
+    """``sdcomp check folder`` in this process (one worker) passes; returns its summary."""
+    rc, out, err = cli([folder, "--workers", 1], entry=check_main)
+    assert rc == 0, out[-2000:] + err
+    return out
 
 
 def _visible_files(folder: Path) -> list[Path]:

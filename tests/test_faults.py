@@ -3,8 +3,10 @@ permission, a journal write cut short, a worker process that dies. After each: n
 corrupt (:func:`tests.datasets.check_intact`), a one-line error where the run reports one,
 and ``--resume`` finishes a dataset byte-identical to an uninterrupted run.
 
-The CI runs a few kill trials; ``pytest -m slow tests/test_faults.py`` runs the campaign
-(>= 24 trials of every signal) and prints its figures.
+The kill trials cover every kind of run (:mod:`tests.test_faults_kinds`: still images,
+video, the seadronessee preset, footage backgrounds, a shard before its merge). The CI runs
+one trial of each kind; ``pytest -m slow tests/test_faults.py`` runs the campaign (20 trials
+of every signal, the kinds in turn) and prints its figures.
 """
 
 from __future__ import annotations
@@ -12,8 +14,6 @@ from __future__ import annotations
 import errno
 import json
 import os
-import random
-import shutil
 import signal
 import subprocess
 import time
@@ -36,12 +36,11 @@ from .datasets import (
     popen,
     wait_until,
 )
+from .test_faults_kinds import BASE, KINDS, Kinds, campaign, figures
 
 pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation:DeprecationWarning")
 
-# small frames, many images: a kill lands in the middle of a run of 2 workers
-BASE = ["--n", "120", "--size", "48", "--clutter", "0", "--altitude", "3-6", "--count", "0-2",
-        "--seed", "11"]
+TRIALS = 60  # the slow campaign's: 20 of each signal, 12 of each kind
 
 
 def gen(out: Path, sprites: Path, *extra, workers: int = 2) -> tuple[int, str, str]:
@@ -67,85 +66,29 @@ def resume_and_compare(out: Path, sprites: Path, reference: Path) -> None:
 
 # --------------------------------------------------------------------------- kill signals
 
-SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
+@pytest.fixture(scope="module")
+def kinds(tmp_path_factory, sprites_dir) -> Kinds:
+    """Every kind of run (:mod:`tests.test_faults_kinds`), each uninterrupted run made once."""
+    return Kinds(tmp_path_factory.mktemp("kinds"), sprites_dir)
 
 
-def kill_trial(out: Path, sprites: Path, sig: int, delay: float, group: bool) -> dict:
-    """Start a 2-worker run, send ``sig`` after ``delay`` s to its main process (or its whole
-    process group, as a terminal's Ctrl-C or the OOM killer would), check what is left.
-    Returns {"fault": whether the run was still going when the signal came, "rc": ...}."""
-    proc = popen(CLI, [*BASE, "--out", out, "--sprites", sprites, "--workers", 2,
-                       "--no-progress"])
-    # not a wait for a condition: the signal lands at a random moment of the run on purpose
-    time.sleep(delay)
-    fault = proc.poll() is None
-    if fault:
-        try:
-            (os.killpg if group else os.kill)(proc.pid, sig)
-        except ProcessLookupError:
-            fault = False
-    rc, _, err = finish(proc, timeout=60)
-    if sig == signal.SIGKILL and not group:
-        # orphaned workers notice at their next image and stop
-        wait_until(lambda: not live_processes(proc.pid),
-                   lambda: f"the orphaned workers to stop (still running: "
-                           f"{live_processes(proc.pid)})")
-    if fault and (out / "dataset.json").exists() and sig != signal.SIGKILL:
-        # the run had begun (a signal during Python's start-up may show a traceback): it
-        # stopped cleanly, an "interrupted" dataset, no temporary files, no traceback
-        assert "Traceback" not in err, err
-        if rc == 130:
-            status = json.loads((out / "dataset.json").read_text())["status"]
-            assert status == "interrupted", status
-    check_intact(out, allow_tmp=sig == signal.SIGKILL or not fault)
-    return {"fault": fault, "rc": rc}
-
-
-def campaign(tmp: Path, sprites: Path, reference: Path, trials: int, seed: int) -> dict:
-    """``trials`` kill trials (signals in turn, random delays and targets), each resumed and
-    compared; returns the figures. A trial that breaks anything fails the test at once."""
-    rng = random.Random(seed)
-    stats = {"trials": 0, "faults": 0, "corrupted": 0, "by_signal": {}}
-    # signals land within the time an uninterrupted run takes on this machine (start-up
-    # included), so that most of them hit a running run however fast the machine is
-    start = time.perf_counter()
-    rc, _, err = gen(tmp / "timed", sprites)
-    assert rc == 0, err
-    longest = max(0.5, 0.9 * (time.perf_counter() - start))
-    shutil.rmtree(tmp / "timed")
-    for t in range(trials):
-        sig = SIGNALS[t % len(SIGNALS)]
-        out = tmp / f"trial{t}"
-        delay = rng.uniform(0.2, longest)
-        group = rng.random() < 0.5
-        try:
-            r = kill_trial(out, sprites, sig, delay, group)
-            resume_and_compare(out, sprites, reference)
-        except AssertionError:
-            stats["corrupted"] += 1
-            print(f"trial {t}: {signal.Signals(sig).name} after {delay:.2f} s "
-                  f"({'group' if group else 'main process'}) broke the dataset")
-            raise
-        stats["trials"] += 1
-        stats["faults"] += r["fault"]
-        name = signal.Signals(sig).name
-        stats["by_signal"][name] = stats["by_signal"].get(name, 0) + r["fault"]
-        shutil.rmtree(out)
-    return stats
-
-
-def test_kill_signals_at_random_moments(tmp_path, sprites_dir, reference):
-    stats = campaign(tmp_path, sprites_dir, reference, trials=3, seed=1)
-    assert stats["corrupted"] == 0
+def test_kill_signals_at_random_moments(tmp_path, kinds):
+    """One trial of each kind of run (the signals in turn)."""
+    stats = campaign(kinds, tmp_path, trials=len(KINDS), seed=1)
+    assert stats["corrupted"] == 0 and set(stats["by_kind"]) == set(KINDS)
     assert stats["faults"] >= 1  # at least one signal hit a running run
 
 
 @pytest.mark.slow
-def test_kill_campaign(tmp_path, sprites_dir, reference):
-    stats = campaign(tmp_path, sprites_dir, reference, trials=30, seed=2026)
-    print(f"\nkill campaign: {stats}")
-    assert stats["trials"] == 30 and stats["corrupted"] == 0
-    assert stats["faults"] >= 20
+def test_kill_campaign(tmp_path, kinds):
+    """60 trials: 20 of each signal, 12 of each kind (each kind meets each signal 4
+    times); the figures are printed (``-s``)."""
+    start = time.perf_counter()
+    stats = campaign(kinds, tmp_path, trials=TRIALS, seed=2026)
+    print(f"\n{figures(stats, time.perf_counter() - start, kinds.seconds)}")
+    assert stats["trials"] == TRIALS and stats["corrupted"] == 0
+    assert all(row["trials"] >= 20 for row in stats["by_signal"].values())
+    assert stats["faults"] >= 0.75 * TRIALS and stats["after_first_write"] >= 0.4 * TRIALS
 
 
 def test_sigterm_stops_workers_and_leaves_no_temporary_file(tmp_path, sprites_dir,
@@ -184,6 +127,73 @@ def has_image(out: Path, proc: subprocess.Popen) -> bool:
 
 def files_and_sizes(root: Path) -> dict:
     return {p.as_posix(): p.stat().st_size for p in root.rglob("*") if p.is_file()}
+
+
+# --------------------------------------------------------------------------- the pool's workers
+
+# a SIGTERM taken by another thread while the pool forks its first worker (any thread of a
+# run, its OpenCV threads too, may take a signal sent to the process)
+SIGNAL_WHILE_FORKING = """
+import os, signal, threading
+from sdcomp.util.pool import imap_ordered
+
+def stop(signum, frame):
+    raise KeyboardInterrupt
+
+signal.signal(signal.SIGTERM, stop)
+go, sent = threading.Event(), threading.Event()
+
+def sender():
+    go.wait()
+    os.kill(os.getpid(), signal.SIGTERM)
+    sent.set()
+
+def after_fork():
+    if not go.is_set():
+        go.set()
+        sent.wait(10)
+
+threading.Thread(target=sender, daemon=True).start()
+os.register_at_fork(after_in_parent=after_fork)
+try:
+    print(sum(imap_ordered(abs, [-1, -2, -3, -4], 2)))
+except KeyboardInterrupt:
+    print("stopped")
+"""
+
+
+def test_a_signal_while_the_workers_start_stops_the_run():
+    """Found by the campaign (a still run, SIGTERM to its main process): the signal came
+    while the pool forked its workers, its handler ran in the fork handler that restores
+    OpenCV's threads, and the KeyboardInterrupt it raised there was printed and dropped: the
+    run went on to the end, deaf to a second SIGTERM. Now the pool defers the handlers while
+    it starts its workers, and the run stops."""
+    proc = popen(SIGNAL_WHILE_FORKING, [])
+    rc, out, err = finish(proc, timeout=60)
+    assert rc == 0 and out == "stopped\n", out + err
+    assert "Traceback" not in err, err
+
+
+# the run is killed (SIGKILL) when its workers have answered and wait for a task
+KILLED_WHILE_IDLE = """
+import os, signal
+from sdcomp.util.pool import imap_ordered
+
+results = imap_ordered(abs, [-1, -2, -3, -4], 2)
+print([next(results) for _ in range(4)], flush=True)  # all in: the workers are idle
+os.kill(os.getpid(), signal.SIGKILL)
+"""
+
+
+def test_idle_workers_of_a_killed_run_end():
+    """Found by the campaign (SIGKILL to a run's main process near its end): its idle
+    workers waited for a task for ever (each holds copies of the parent's ends of the
+    pipes, so none sees an end of file), holding the run's output pipes open. Now an idle
+    worker checks every second that its parent is alive."""
+    proc = popen(KILLED_WHILE_IDLE, [])
+    rc, out, err = finish(proc, timeout=20)  # the orphans hold its pipes until they end
+    assert rc == -signal.SIGKILL and out == "[1, 2, 3, 4]\n", out + err
+    wait_until(lambda: not live_processes(proc.pid), "the orphaned workers to end", 10)
 
 
 # --------------------------------------------------------------------------- a worker dies

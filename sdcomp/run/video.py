@@ -122,7 +122,8 @@ def run_video(video: VideoConfig, options: RunOptions,
 
 def prepare_clips(video: VideoConfig, options: RunOptions) -> set[int]:
     """Check, clear or resume the output folder; returns the finished sequences kept.
-    Unfinished sequence folders of a resumed run are removed (they are made again)."""
+    Unfinished sequence folders of a resumed run are removed (they are made again), and
+    the temporary files of a killed write (:func:`sweep_clip_tmp`)."""
     out = options.out
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} is a file; give a folder")
@@ -145,7 +146,20 @@ def prepare_clips(video: VideoConfig, options: RunOptions) -> set[int]:
             elif s in wanted:
                 shutil.rmtree(layout.seq(s))
     (out / "annotations").mkdir(parents=True, exist_ok=True)
+    sweep_clip_tmp(layout)
     return done
+
+
+def sweep_clip_tmp(layout: ClipLayout, sequences: list[int] | tuple = ()) -> None:
+    """Remove the temporary files (``.NAME.*.tmp``) a killed run can leave beside
+    video.json, data.yaml and the COCO-video file, and those of the frames of ``sequences``
+    whose writers were stopped mid-write (a worker ends at SIGTERM)."""
+    for path in (layout.meta, layout.data_yaml, layout.coco):
+        for tmp in path.parent.glob(f".{path.name}.*.tmp"):
+            tmp.unlink(missing_ok=True)
+    for s in sequences:
+        for tmp in layout.seq(s).glob("*/.*.tmp"):
+            tmp.unlink(missing_ok=True)
 
 
 def remove_clips(layout: ClipLayout) -> None:
@@ -216,6 +230,7 @@ def _run(video: VideoConfig, options: RunOptions, clips: ClipGenerator, done: se
         raise
     finally:
         progress.close()
+        sweep_clip_tmp(layout, pending)  # the workers are stopped: what they left half-written
         try:
             counts = write_video_meta(video, layout, status, options.shard, sequences)
         finally:

@@ -12,7 +12,8 @@ Workers are forked where the platform can (they inherit the caller's loaded stat
 sprite atlases), with SIGINT and SIGTERM blocked and OpenCV's threads paused while forking
 (:func:`pause_opencv_threads_on_fork`); in a worker SIGINT is ignored
 (the parent handles Ctrl-C and stops the workers) and SIGTERM ends it. A worker whose parent
-has gone (the parent was killed with SIGKILL) stops at its next :func:`note`.
+has gone (the parent was killed with SIGKILL) stops at its next :func:`note`, or within
+:data:`ORPHAN_SECONDS` when it is idle.
 """
 
 from __future__ import annotations
@@ -22,8 +23,10 @@ import multiprocessing as mp
 import os
 import pickle
 import signal
+import threading
 import traceback
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from multiprocessing.connection import wait
 from typing import Any
 
@@ -32,6 +35,7 @@ import cv2
 from ..errors import UserError
 
 STOP_SECONDS = 5.0  # how long stopped workers get to end after SIGTERM before SIGKILL
+ORPHAN_SECONDS = 1.0  # how often an idle worker checks that its parent is alive
 _SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 # in a worker: (slot, shared array of current items, parent pid)
@@ -109,6 +113,11 @@ def _serve(slot: int, conn, current, parent: int, func: Callable, initializer, i
         initializer(*initargs)
     while True:
         try:
+            # no EOF tells an idle worker that its parent was killed: the workers hold
+            # copies of the parent's ends of the pipes (forked after them)
+            while not conn.poll(ORPHAN_SECONDS):
+                if os.getppid() != parent:
+                    return  # orphaned: nobody sends a task
             msg = conn.recv()
         except (EOFError, OSError):
             return  # the parent is gone
@@ -255,27 +264,54 @@ class _Crew:
 def _start_workers(workers: int, func: Callable, initializer: Callable | None,
                    initargs: tuple, what: str) -> _Crew:
     """Start ``workers`` processes running :func:`_serve` (forked where the platform can),
-    with SIGINT and SIGTERM blocked while they start, so that Ctrl-C never meets a
-    half-started worker."""
+    with SIGINT and SIGTERM blocked and their handlers deferred while they start
+    (:func:`_signals_deferred`), so that Ctrl-C never meets a half-started worker."""
     ctx: Any = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     current = ctx.RawArray("q", workers)
     procs, conns = [], []
     pause_opencv_threads_on_fork()  # children would hang in OpenCV's thread pool
-    # keep Ctrl-C away from half-started workers
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
-    try:
-        for slot in range(workers):
-            mine, theirs = ctx.Pipe()
-            p = ctx.Process(target=_serve, daemon=True, name=f"sdcomp-worker-{slot}",
-                            args=(slot, theirs, current, os.getpid(), func, initializer,
-                                  initargs))
-            p.start()
-            theirs.close()
-            procs.append(p)
-            conns.append(mine)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+    # keep Ctrl-C away from half-started workers (and from the fork handlers)
+    with _signals_deferred():
+        old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+        try:
+            for slot in range(workers):
+                mine, theirs = ctx.Pipe()
+                p = ctx.Process(target=_serve, daemon=True, name=f"sdcomp-worker-{slot}",
+                                args=(slot, theirs, current, os.getpid(), func, initializer,
+                                      initargs))
+                p.start()
+                theirs.close()
+                procs.append(p)
+                conns.append(mine)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
     return _Crew(procs, conns, current, what)
+
+
+@contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT's and SIGTERM's Python handlers off for the block: a signal that comes
+    meanwhile is noted, and raised again after the block with the handlers back.
+
+    Blocking the signals (``pthread_sigmask``) is not enough: it blocks them in this thread
+    only, another thread of the process (OpenCV's, a BLAS pool's) takes them, and Python then
+    runs the handler in this thread's next bytecode, which may be a fork handler
+    (:func:`_resume_opencv`), where the KeyboardInterrupt it raises is printed and dropped:
+    the stop was lost. Outside the main thread (no handlers there) nothing is deferred."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+    old = {s: h for s in _SIGNALS if (h := signal.getsignal(s)) is not None}
+    for s in old:
+        signal.signal(s, lambda signum, frame: came.append(signum))
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        for signum in dict.fromkeys(came):
+            signal.raise_signal(signum)
 
 
 def _died(proc: Any, item: int, what: str) -> WorkerDied:
