@@ -35,7 +35,7 @@ from ..errors import UserError, run_cli
 from ..pipeline import DEFAULT_SPRITES
 from .detector import BACKBONES
 from .fewshot_cli import cmd_fewshot as fewshot_command
-from .fewshot_cli import fewshot_parser
+from .fewshot_cli import fewshot_parser, native_training_flags
 from .grid import PRESETS, GridSpec, preset
 from .train import OPTIMIZERS
 
@@ -153,17 +153,7 @@ def _sim2real_parser(sub) -> None:
     s.add_argument("--score-threshold", type=float, default=0.5, metavar="S",
                    help="detections drawn in detections.jpg score at least S (default: "
                         "%(default)s)")
-    s.add_argument("--device", default="auto", metavar="DEV", help="auto, cpu or cuda[:N]")
-    s.add_argument("--threads", type=int, metavar="N", help="torch CPU threads")
-    s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress line (default: only on a terminal)")
-    g = s.add_argument_group("training (default: the paper's schedule, as grid)")
-    for dest, (typ, metavar, text) in TRAIN_FLAGS.items():
-        if dest != "min_scale":  # images are never resized here
-            g.add_argument("--" + dest.replace("_", "-"), dest=dest, type=typ,
-                           metavar=metavar, help=text)
-    g.add_argument("--hflip", action=argparse.BooleanOptionalAction, default=None,
-                   help="random horizontal flips")
+    native_training_flags(s, "training (default: the paper's schedule, as grid)", TRAIN_FLAGS)
 
 
 def grid_from_args(args) -> GridSpec:

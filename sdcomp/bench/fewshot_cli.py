@@ -1,5 +1,5 @@
-"""``bench fewshot``'s command line: its parser (beside ``sim2real``'s, whose training flags
-it shares) and the command (:mod:`sdcomp.bench.fewshot`)."""
+"""``bench fewshot``'s command line: its parser, the training flags it shares with
+``sim2real``'s (:func:`native_training_flags`) and the command (:mod:`sdcomp.bench.fewshot`)."""
 
 from __future__ import annotations
 
@@ -36,11 +36,18 @@ def fewshot_parser(sub, train_flags: dict) -> None:
     s.add_argument("--map", action="append", default=[], metavar="GEN=REAL",
                    help="generated category GEN is real category REAL (repeatable)")
     s.add_argument("--out", required=True, metavar="DIR", help="results folder (resumable)")
+    native_training_flags(s, "training (as sim2real)", train_flags)
+
+
+def native_training_flags(s: argparse.ArgumentParser, title: str, train_flags: dict) -> None:
+    """The flags of a training at the frames' own size (``sim2real``, ``fewshot``): device,
+    threads, progress, and the ``train_flags`` but ``min_scale`` (images are never resized)
+    in a group ``title``, with ``--hflip``."""
     s.add_argument("--device", default="auto", metavar="DEV", help="auto, cpu or cuda[:N]")
     s.add_argument("--threads", type=int, metavar="N", help="torch CPU threads")
     s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress line (default: only on a terminal)")
-    g = s.add_argument_group("training (as sim2real)")
+    g = s.add_argument_group(title)
     for dest, (typ, metavar, text) in train_flags.items():
         if dest != "min_scale":
             g.add_argument("--" + dest.replace("_", "-"), dest=dest, type=typ,
