@@ -40,6 +40,7 @@ from .atlas.cache import announce_build, ensure_atlas, missing_atlases, sprites_
 from .atlas.sprites import SpriteSource
 from .atlas.store import AtlasConfig
 from .errors import UserError
+from .render.camera.grade import load_grade
 from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds
 from .render.textures import Textures
@@ -97,6 +98,8 @@ class Generator:
         keep_freed_memory()  # frames' temporaries reused, not faulted in again
         self.config = config
         self.model = config.camera_model()
+        if config.grade is not None:
+            load_grade(config.grade)  # a grade file it cannot use stops it here, named
         sprites = _all_sprites(config, sprites_folder(sprites_dir), progress, build_workers)
         photos = (Backgrounds(config.backgrounds, config.background_labels)
                   if config.backgrounds else None)

@@ -29,6 +29,8 @@ from sdcomp.scene.look_table import PARAMS, clean_look, sample_look
 from .conftest import squares, water_like
 
 CAMERAS = [p for p in PRESETS if p != "clean"]
+#: the stages a look without a site grade runs (the grade: tests/test_site_grade.py)
+UNGRADED = [s for s in STAGES if s != "grade"]
 
 
 def test_clean_preset_is_exactly_the_identity(frame416):
@@ -62,7 +64,7 @@ def test_same_look_same_bytes(preset, w, h):
     b = apply_camera(img.copy(), ins.copy(), CameraLook.from_dict(json.loads(look.to_json())),
                      tile.copy())
     assert a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
-    assert set(a[3]["stages"]) == set(STAGES)
+    assert set(a[3]["stages"]) == set(UNGRADED)
     assert a[0].dtype == np.uint8 and a[0].shape == (h, w, 3)
     assert a[1].dtype == np.uint16 and a[1].shape == (h, w)
     assert not np.array_equal(a[0], img)
@@ -232,14 +234,14 @@ def test_stages_the_look_leaves_out_do_not_run(frame416):
     look = replace(sample_look("phantom4pro", np.random.default_rng(4), 416, 416),
                    native_width=416, native_height=416, motion_px=5.0)
     full, _, _, info = apply_camera(img, ins, look, tile)
-    assert info["stages"] == list(STAGES)
-    for stage in STAGES:  # each one alone left out, the rest run
+    assert info["stages"] == UNGRADED
+    for stage in UNGRADED:  # each one alone left out, the rest run
         _, _, _, info = apply_camera(img, ins, replace(look, off=(stage,)), tile)
-        assert info["stages"] == [s for s in STAGES if s != stage]
+        assert info["stages"] == [s for s in UNGRADED if s != stage]
     off = replace(look, off=("noise", "compression"))
     out, oins, _, info = apply_camera(img, ins, off, tile)
-    assert info["stages"] == [s for s in STAGES if s not in off.off]
-    rest = [s for s in STAGES if s not in off.off]
+    assert info["stages"] == [s for s in UNGRADED if s not in off.off]
+    rest = [s for s in UNGRADED if s not in off.off]
     by_hand, hins, _, _ = apply_camera(img, ins, look, tile, enabled=rest)
     assert np.array_equal(out, by_hand) and np.array_equal(oins, hins)
     assert not np.array_equal(out, full)
@@ -275,7 +277,7 @@ def test_scale_rule_at_native_runs_everything(frame416):
     look = replace(sample_look("phantom4pro", np.random.default_rng(4), 416, 416),
                    native_width=416, native_height=416, motion_px=5.0)
     _, _, _, info = apply_camera(img, ins, look, make_noise_tile((0,), 416, 416))
-    assert set(info["stages"]) == set(STAGES)
+    assert set(info["stages"]) == set(UNGRADED)
     assert info["stages"] == [s for s in STAGES if s in info["stages"]]  # in order
     assert info["sharpen"] == (look.sharpen_amount, look.sharpen_radius)
     assert info["bpp_jpeg"] > 0 and info["compression_factor"] == (1, 1)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from ..errors import UserError, run_cli
@@ -19,6 +20,8 @@ from ..fitting.config_file import HEADER, config_text, write_config
 from ..fitting.report import write_report
 from ..fitting.search import CANDIDATES
 from ..pipeline import DEFAULT_SPRITES
+from ..render.camera.grade import save_grade
+from ..scene.presets import PRESETS
 from ..util.log import add_verbosity_flags, setup_logging
 from . import Parser, prog
 
@@ -34,9 +37,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "a coordinate search on small rendered frames) so that generated images "
                     "match them. Writes a commented config for `sdcomp generate --config` "
                     "and `sdcomp video --config`, and a report.",
-        epilog="Writes OUT (the config) and, beside it, fit_report.md, fit_report.json and "
-               "fit_crops.png (or into --report DIR). Runs in a few minutes on 2 cores for "
-               "50-200 frames. Recipe and figures: docs/fit.md.")
+        epilog="Writes OUT (the config), OUT's name + .grade.json (the site grade) and, "
+               "beside them, fit_report.md, fit_report.json and fit_crops.png (or into "
+               "--report DIR). Runs in a few minutes on 2 cores for 50-200 frames. Recipe "
+               "and figures: docs/fit.md.")
     p.add_argument("frames", metavar="FRAMES", help="your footage: a folder (or file) of "
                    "photos and videos (every video frame is a candidate)")
     p.add_argument("--out", metavar="FILE", default="fitted.toml", help="the config to write "
@@ -74,6 +78,15 @@ def build_parser() -> argparse.ArgumentParser:
                    "user's cache folder)")
     p.add_argument("--seed", metavar="S", type=int, default=0, help="seed of the frame choice "
                    "and the rendered frames")
+    p.add_argument("--preset", metavar="NAME", help="fit under this generate preset's scene "
+                   "(its altitudes, pitches and camera; the objects do not matter), to "
+                   f"generate with `--preset NAME --config OUT` ({', '.join(PRESETS)}; "
+                   "default: none, the generator's defaults)")
+    p.add_argument("--grade", action=argparse.BooleanOptionalAction, default=True,
+                   help="also fit the site grade (the camera's last stage: the water's "
+                        "colour and detail mapped to the footage's, chosen by the realism "
+                        "classifier), written beside the config as OUT's name + .grade.json "
+                        "and named in it (default: on; none when no grade helps)")
     add_verbosity_flags(p)
     return p
 
@@ -101,13 +114,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     groups = _check(args)
     result = fit_footage(args.frames, args.labels, args.altitude, args.pitch, args.size,
                          args.max_frames, args.renders, args.sprites, groups, args.passes,
-                         args.seed, log=log.info, fov=args.fov)
+                         args.seed, log=log.info, fov=args.fov, grade=args.grade,
+                         preset_name=args.preset)
     fitted = "altitude" if "not fitted" not in result.geometry else ""
+    out = Path(args.out)
+    chosen = result.config
+    if result.grade is not None and not result.grade.identity:
+        grade_file = out.with_name(out.stem + ".grade.json")
+        grade_file.parent.mkdir(parents=True, exist_ok=True)
+        save_grade(result.grade, grade_file)
+        chosen = replace(chosen, grade=grade_file.name)
     header = [f"{HEADER}{args.frames}: {result.footage.frames} frames, "
               f"{result.search.seconds:.0f} s", result.geometry,
-              "use: sdcomp generate --config THIS_FILE --out DIR (flags after it override it)"]
-    config = write_config(args.out, config_text(result.config, header, bool(fitted)))
-    out = Path(args.out)
+              f"use: sdcomp generate {f'--preset {args.preset} ' if args.preset else ''}"
+              f"--config THIS_FILE --out DIR (flags after it override it)"]
+    config = write_config(args.out, config_text(chosen, header, bool(fitted)))
     md = write_report(result, args.report or out.parent, out.name if args.report is None
                       else str(out))
     log.info(f"config: {out} ({config.width} x {config.height} px, water "

@@ -35,6 +35,8 @@ KEYS: tuple[tuple[str, str], ...] = (
     ("jpeg_quality", "compression of the written files (blockiness)"),
     ("motion_blur", "probability of motion blur (sharpness)"),
     ("defocus_blur", "probability of defocus blur (sharpness)"),
+    ("grade", "the site grade (the camera's last stage: the water's colour distribution and "
+              "detail mapped to the footage's), a file beside this one"),
 )
 
 

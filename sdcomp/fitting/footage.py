@@ -20,6 +20,7 @@ from ..report.realism.sea import ALTITUDE_KEY, PITCH_KEY, num
 from ..report.realism.sources import Frame, load_frame, load_real, sky_mask
 from ..scene.camera import ALTITUDE_RANGE, PITCH_RANGE, CameraModel
 from .flightlog import dji_meta, photo_fov, srt_meta
+from .grade import water_patches
 from .stats import image_stats as measure_image
 from .stats import stack, summary
 
@@ -37,7 +38,9 @@ class Footage:
     size for the report's picture, ``notes`` one-line facts for the report,
     ``sky_masked`` whether the sky of some frames was kept out (so the rendered frames'
     is too), ``fov`` the frames' diagonal field of view (degrees: ``--fov``, else the
-    median of the photos' EXIF ones; None: unknown)."""
+    median of the photos' EXIF ones; None: unknown), ``patches`` (k, 64, 64, 3) uint8 some
+    empty-water patches of the frames (the site grade's sample), ``patch_frames`` (k,) the
+    frame each is of."""
 
     per_image: dict[str, np.ndarray]
     summary: dict[str, tuple[float, float, float]]
@@ -50,6 +53,8 @@ class Footage:
     frames: int = 0
     sky_masked: bool = False
     fov: float | None = None
+    patches: np.ndarray = field(default_factory=lambda: np.zeros((0, PATCH, PATCH, 3), np.uint8))
+    patch_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 def working_size(width: int, height: int, size: int | None) -> tuple[int, int]:
@@ -85,6 +90,8 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
     crops: list[np.ndarray] = []
     alts, pitches, logs, skies, painted = [], [], 0, 0, 0
     fovs: list[float] = []
+    patches: list[np.ndarray] = []
+    rng = np.random.default_rng([int(seed), 0x9A7])
     for frame in fs.frames:
         loaded = load_frame(frame)  # a frame it cannot read stops the fit, naming it
         assert loaded is not None  # (None is only for a generated set's missing images)
@@ -102,14 +109,18 @@ def read_footage(path: str | Path, labels: str | Path | None = None, size: int |
         painted += scene is not None
         if scene is not None:
             valid = scene if valid is None else valid & scene
-        rows.append(measure_image(rgb, empty_water((h, w), None, boxes, valid), scene))
+        keep = empty_water((h, w), None, boxes, valid)
+        rows.append(measure_image(rgb, keep, scene))
+        patches.append(water_patches(rgb, keep, rng))
         if len(crops) < 4:
             crops.append(rgb)
     per = stack(rows)
     if per["luminance"].size == 0:
         raise UserError(f"{path}: none of the {len(fs.frames)} frames has a 64 x 64 patch of "
                         f"water free of labelled objects to measure")
-    out = Footage(per, summary(per), w, h, crops=crops, frames=per["luminance"].size)
+    out = Footage(per, summary(per), w, h, crops=crops, frames=per["luminance"].size,
+                  patches=np.concatenate(patches),
+                  patch_frames=np.repeat(np.arange(len(patches)), [len(p) for p in patches]))
     out.altitude = _geometry(altitude, alts, ALTITUDE_RANGE, "altitude")
     out.pitch = _geometry(pitch, pitches, PITCH_RANGE, "pitch")
     out.sky_masked = skies > 0

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..render.camera.grade import SiteGrade
 from ..report.realism.crops import Crop, montage
 from ..scene.config import GeneratorConfig
 from ..util.files import atomic_write_bytes, write_png
@@ -26,15 +27,21 @@ def comparison(result: FitResult) -> list[dict]:
     (p10, p50, p90), the distances to the footage (units of :data:`SCALES`) and whether the
     fitted one is the closer."""
     foot, fit, dflt = result.footage.summary, result.search.summary, result.search.default_summary
+    graded = result.graded[0] if result.graded is not None else None
     d_fit, d_dflt = distance(fit, foot), distance(dflt, foot)
+    d_graded = distance(graded, foot) if graded is not None else None
     rows = []
     for k in (*STATS, *EXTRA):
         row = {"statistic": k, "unit": UNITS[k], "footage": foot[k], "fitted": fit[k],
                "default": dflt[k]}
+        if graded is not None:
+            row["graded"] = graded[k]
         if k in SCALES:
             row |= {"fitted_distance": d_fit[k], "default_distance": d_dflt[k],
                     "closer": bool(d_fit[k] <= d_dflt[k]) if math.isfinite(
                         d_fit[k] + d_dflt[k]) else None}
+            if d_graded is not None:
+                row["graded_distance"] = d_graded[k]
         rows.append(row)
     return rows
 
@@ -49,6 +56,7 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
     """The report as markdown text."""
     f, s = result.footage, result.search
     rows = comparison(result)
+    graded = result.graded is not None
     lines = ["# sdcomp fit", "",
              f"{f.frames} frames measured at {f.width} x {f.height} px; {s.seconds:.0f} s of "
              f"search ({len(s.trials)} candidates, {s.per_image['luminance'].size} rendered "
@@ -61,12 +69,25 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
              "units of the fit's scale (median difference + a quarter of the p10 and p90 "
              "differences); definitions in docs/fit.md.", "",
              "| statistic | unit | footage | fitted | defaults | distance fitted | "
-             "distance defaults | closer |", "|---|---|---|---|---|---|---|---|"]
+             "distance defaults | closer |" + (" graded | distance graded |" if graded else ""),
+             "|---|---|---|---|---|---|---|---|" + ("---|---|" if graded else "")]
     for r in rows:
         dist = (f"{r['fitted_distance']:.2f} | {r['default_distance']:.2f} | "
                 f"{_closer(r['closer'])}" if "closer" in r else "- | - | report only")
+        if graded:
+            dist += f" | {_triple(r['graded'])} | " + (
+                f"{r['graded_distance']:.2f}" if "graded_distance" in r else "-")
         lines.append(f"| {r['statistic']} | {r['unit']} | {_triple(r['footage'])} | "
                      f"{_triple(r['fitted'])} | {_triple(r['default'])} | {dist} |")
+    if graded:
+        gf = result.grade_fit
+        lines += ["", f"Graded: the fitted config with its site grade (`grade` in the config, "
+                  f"the camera's last stage, {grade_text(result.grade)}), chosen on "
+                  f"{len(f.patches)} water patches of the footage by the realism classifier "
+                  f"(its cross-validated accuracy telling them from the generated water's, "
+                  f"0.5: indistinguishable): {gf.before:.3f} for the fitted scene, "
+                  f"{gf.after:.3f} graded. The distances are to the footage as above."
+                  if gf is not None and result.grade is not None else ""]
     missed = [r["statistic"] for r in rows if r.get("closer") is False]
     far = [r["statistic"] for r in rows if r.get("fitted_distance", 0) > 2]
     lines += ["", _reach_text(missed, far), "", "## Settings", "",
@@ -83,9 +104,21 @@ def markdown(result: FitResult, config_path: str, picture: str | None) -> str:
                   f"defaults' camera); the fit from "
                   f"{'the cast' if c['kept'] == 'cast' else 'the defaults'} is kept.", ""]
     if picture:
-        lines += ["## Crops", "", f"![footage, fitted, defaults]({picture})", "",
-                  f"Rows: footage, fitted, defaults; {CROP_PX} px crops at the working size."]
+        names = "footage, fitted, graded, defaults" if graded else "footage, fitted, defaults"
+        lines += ["## Crops", "", f"![{names}]({picture})", "",
+                  f"Rows: {names}; {CROP_PX} px crops at the working size."]
     return "\n".join(lines) + "\n"
+
+
+def grade_text(grade: SiteGrade) -> str:
+    """A clause on what a grade does."""
+    if grade.identity:
+        return "none: no grade tried did better"
+    m = grade.matrix
+    return (f"colour x -> M x + b, M = {np.round(m, 3).tolist()}, b = "
+            f"{np.round(grade.offset, 1).tolist()}; luma spectrum gains "
+            f"{', '.join(f'{g:.2f}' for g in grade.spectrum)} from coarse to fine; chroma "
+            f"detail x {grade.chroma:.2f}")
 
 
 def _closer(ok: bool | None) -> str:
@@ -114,14 +147,17 @@ def _value(config: GeneratorConfig, key: str) -> str:
 
 
 def picture(result: FitResult) -> np.ndarray:
-    """(H, W, 3) uint8 RGB: rows of up to 4 centre crops of the footage, the fitted config's
-    and the defaults' frames, all at the working size."""
+    """(H, W, 3) uint8 RGB: rows of up to 4 centre crops of the footage, the fitted config's,
+    the graded ones (where a grade was fitted) and the defaults' frames, all at the working
+    size."""
     rows = [("footage", result.footage.crops), ("fitted", result.search.frames),
+            *([("graded", result.graded[1])] if result.graded is not None else []),
             ("defaults", result.search.default_frames)]
     side = min(CROP_PX, result.footage.width, result.footage.height)
     out = [(name, [Crop(_centre(a, side), f"{a.shape[1]}x{a.shape[0]}", True) for a in imgs])
            for name, imgs in rows]
-    return montage(out, "sdcomp fit: footage, fitted, defaults (one scale)", 4, side)
+    names = ", ".join(n for n, _ in rows)
+    return montage(out, f"sdcomp fit: {names} (one scale)", 4, side)
 
 
 def _centre(rgb: np.ndarray, side: int) -> np.ndarray:
@@ -143,6 +179,11 @@ def write_report(result: FitResult, folder: str | Path, config_path: str) -> Pat
             "geometry": result.geometry, "seconds": result.search.seconds,
             "statistics": comparison(result), "config": result.config.to_dict(),
             "water_votes": result.search.water_votes, "cast_search": result.search.cast,
+            "grade": None if result.grade is None else json.loads(result.grade.to_json()),
+            "grade_search": None if result.grade_fit is None else {
+                "accuracy_fitted": result.grade_fit.before,
+                "accuracy_graded": result.grade_fit.after,
+                "trials": result.grade_fit.trials},
             "trials": [{"group": t.group, "settings": t.settings, "loss": t.loss}
                        for t in result.search.trials]}
     atomic_write_bytes(folder / "fit_report.json",

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -108,8 +108,10 @@ def with_settings(config: GeneratorConfig, **settings) -> GeneratorConfig:
 
 
 def water_only(config: GeneratorConfig) -> GeneratorConfig:
-    """``config`` without objects of interest or clutter (the search measures water)."""
-    return with_settings(config, count=0, clutter=0)
+    """``config`` without objects of interest or clutter (the search measures water), its
+    objects the defaults' (none is drawn: a preset's many would only cost their atlases)."""
+    return replace(with_settings(config, count=0, clutter=0),
+                   objects=GeneratorConfig().objects)
 
 
 _GENERATOR: dict[tuple, Generator] = {}  # this process's last water generator

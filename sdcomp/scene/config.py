@@ -225,6 +225,8 @@ class GeneratorConfig:
                                           f"speed: {', '.join(STAGES)} (compression, "
                                           "the 4K recording's blocks, is half of a 1920x1080 "
                                           "image's time; see docs/performance.md)", "STAGE")
+    grade: str | None = setting(None, "path", "site grade file of sdcomp fit, the camera's "
+                                "last stage (in a config: beside it)", "FILE")
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -394,6 +396,5 @@ class GeneratorConfig:
                                 f"`python -m sdcomp.generate --help` for the names")
             clean[name] = value
         return replace(base or cls(), **clean)
-
 
 __all__ = ["GeneratorConfig", "ObjectSpec", "PRESETS", "preset", "load_toml"]

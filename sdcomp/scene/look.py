@@ -57,7 +57,7 @@ PRESETS: dict[str, Preset] = {
 RECORDINGS = ("video", "photo")
 #: the camera's stages, in the order they run (:mod:`sdcomp.render.camera.pipeline`)
 STAGES = ("motion", "lens", "vignetting", "photometric", "noise", "demosaic", "colour",
-          "sharpen", "compression")
+          "sharpen", "compression", "grade")
 
 # ----------------------------------------------------------------------------- the table
 
@@ -137,10 +137,14 @@ class CameraLook:
     jpeg_quality: int = 0
     deblock: float = 0.0
     off: tuple[str, ...] = ()  # stages left out, for speed (the user's --camera-off)
+    grade: str | None = None  # the site grade file (--grade), the last stage; None: none
 
     def to_dict(self) -> dict:
-        """The look as a dict of plain JSON values."""
-        return asdict(self)
+        """The look as a dict of plain JSON values (``grade`` only where there is one)."""
+        d = asdict(self)
+        if d["grade"] is None:
+            del d["grade"]
+        return d
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), sort_keys=False)

@@ -72,7 +72,8 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur, overrides=config.look_overrides())
     water, look = expose(water, look)
-    look = replace(look, off=config.camera_off)  # stages left out: the draws stay the same
+    # stages left out (the draws stay the same) and the site grade
+    look = replace(look, off=config.camera_off, grade=config.grade)
     scale = max(model.width, model.height) / 416.0
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
     quality = int(config.jpeg_quality.sample(rng))

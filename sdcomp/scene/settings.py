@@ -71,6 +71,8 @@ class Setting:
                 raise SettingError(name, "{name} must be true or false")
             return value
         if self.kind == "path" and value is not None:
+            if self.optional and str(value).lower() == "none":
+                return None  # --grade none: unset what a config file set
             return path_text(value, name)
         return value
 
@@ -199,4 +201,7 @@ def load_toml(path: str | Path) -> dict:
         raise UserError(f"--config {p}: not a readable TOML file ({e})") from None
     if "generate" in data and isinstance(data["generate"], dict):
         data = data["generate"]
+    grade = data.get("grade")
+    if isinstance(grade, str) and grade and not Path(grade).is_absolute():
+        data = {**data, "grade": str(p.parent / grade)}  # beside the config file
     return data

@@ -19,7 +19,9 @@ Order (physical, with the fusions that keep it cheap):
 7. ``colour``: saturation (luma-preserving 3 x 3, ``cv2.transform``);
 8. ``sharpen``: in-camera unsharp mask (halos), reduced by the scale rule;
 9. ``compression``: block-DCT quantisation (JPEG proxy of H.264/H.265 at the bitrate's
-   bits per pixel, or the photo's JPEG) with deblocking, at native block size.
+   bits per pixel, or the photo's JPEG) with deblocking, at native block size;
+10. ``grade``: the site grade fitted to the user's footage (:mod:`.grade`), where the look
+    names one.
 
 **Scale rule.** The output is the native recording reduced by ``sx = native_width /
 out_width``, ``sy = native_height / out_height`` (at least 1). Native-pixel sizes are
@@ -31,8 +33,9 @@ threshold (:data:`THRESHOLDS`) is skipped: far from the native scale (416 px fro
 photometric look, the lens geometry, vignetting and long motion blur remain.
 
 **Huge frames** (a side over :data:`HUGE_SIDE` pixels: mosaics, not a camera's frames) get
-the point-wise stages only (photometric, noise, saturation), band by band in place (a
-30000 x 30000 frame is 2.7 GB: no stage may copy it); their geometry stays the pinhole's.
+the point-wise stages only (photometric, noise, saturation, the grade's colour), band by
+band in place (a 30000 x 30000 frame is 2.7 GB: no stage may copy it); their geometry stays
+the pinhole's.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ import numpy as np
 from ...scene.look import STAGES, CameraLook
 from ..effects import blur
 from .codec import block_compress, unsharp
+from .grade import apply_colour_grade, apply_grade, load_grade
 from .lens import lens_maps
 from .photometric import (
     Photometric,
@@ -122,6 +126,7 @@ def apply_camera(image: np.ndarray, instances: np.ndarray, look: CameraLook,
     out = _colour(out, run)
     out = _sharpen(out, run)
     out = _compression(out, run)
+    out = _grade(out, run)
     if out is image:
         out = image.copy()
     if "lens" not in run.ran:  # always new arrays
@@ -316,12 +321,24 @@ def _compression(out: np.ndarray, run: _Run) -> np.ndarray:
     return out
 
 
+def _grade(out: np.ndarray, run: _Run) -> np.ndarray:
+    """10. The site grade (:mod:`.grade`), where the look has one."""
+    if "grade" in run.on and run.look.grade is not None:
+        grade = load_grade(run.look.grade)
+        if not grade.identity:
+            out = apply_grade(out, grade)
+            run.ran.append("grade")
+    run.clock("grade")
+    return out
+
+
 def _huge(image: np.ndarray, run: _Run, noise_tile: np.ndarray | None) -> np.ndarray:
     """The point-wise stages of a huge frame, in place, band by band of rows."""
     table, noisy = _tables(image, run, noise_tile)
     look = run.look
     sat = "colour" in run.on and abs(look.saturation - 1) >= THRESHOLDS["saturation"]
     lut = "photometric" in run.on and not table.identity
+    grade = load_grade(look.grade) if "grade" in run.on and look.grade is not None else None
     rows = max(1, HUGE_BAND_PIXELS // run.width)
     for y in range(0, run.height, rows):
         band = image[y:y + rows]
@@ -333,8 +350,11 @@ def _huge(image: np.ndarray, run: _Run, noise_tile: np.ndarray | None) -> np.nda
             cv2.LUT(band, table.lut, dst=band)
         if sat:
             band[:] = apply_colour(band, colour_matrix(look.saturation))
+        if grade is not None:
+            band[:] = apply_colour_grade(band, grade)
     run.ran += (["photometric"] if lut or (noisy and "photometric" in run.on) else []) + (
-        ["noise"] if noisy else []) + (["colour"] if sat else [])
+        ["noise"] if noisy else []) + (["colour"] if sat else []) + (
+        ["grade"] if grade is not None else [])
     run.clock("huge")
     return image
 
