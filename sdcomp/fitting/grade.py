@@ -32,7 +32,7 @@ from ..report.realism.classifier import cross_validate, patch_features
 from ..report.realism.patches import PATCH, to_patches
 from ..report.realism.spectrum import patch_power, radial_frequency
 
-PATCHES_PER_FRAME = 8  #: empty-water patches kept per frame (a seeded choice)
+PATCHES_PER_FRAME = 24  #: empty-water patches kept per frame (a seeded choice)
 DETAIL_GAINS = (0.1, 4.0)  #: the fitted detail gains (spectrum, chroma) are limited to these
 DETAIL_ROUNDS = 3  #: rounds of the detail gains' fit
 BLOCK = 8  #: px: the colour's variation is measured on the means of blocks of this side
