@@ -225,7 +225,7 @@ def test_fit_writes_a_grade_that_brings_another_cameras_footage_closer(tmp_path,
     out = tmp_path / "fit" / "site.toml"
     rc = run_cli(main, ["fit", str(frames), "--out", str(out), "--sprites", str(sprites_dir),
                         "--renders", str(RENDERS), "--passes", "1", "--search", "look,wind",
-                        "-q"])
+                        "--grade", "-q"])
     assert rc == 0, capsys.readouterr().err
     report = json.loads((out.parent / "fit_report.json").read_text())
     search = report["grade_search"]
@@ -243,7 +243,7 @@ def test_fit_writes_a_grade_that_brings_another_cameras_footage_closer(tmp_path,
     assert rc == 0 and "grade" not in capsys.readouterr().out
     rc = run_cli(main, ["fit", str(frames), "--out", str(tmp_path / "p" / "p.toml"),
                         "--preset", "seadronessee", "--sprites", str(sprites_dir), "--renders",
-                        "2", "--passes", "0", "--no-grade", "-q"])
+                        "2", "--passes", "0", "-q"])
     assert rc == 0, capsys.readouterr().err
     text = (tmp_path / "p" / "p.toml").read_text()
     assert "--preset seadronessee's altitude and pitch are kept" in text

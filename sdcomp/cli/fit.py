@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "a coordinate search on small rendered frames) so that generated images "
                     "match them. Writes a commented config for `sdcomp generate --config` "
                     "and `sdcomp video --config`, and a report.",
-        epilog="Writes OUT (the config), OUT's name + .grade.json (the site grade) and, "
+        epilog="Writes OUT (the config), with --grade OUT's name + .grade.json, and "
                "beside them, fit_report.md, fit_report.json and fit_crops.png (or into "
                "--report DIR). Runs in a few minutes on 2 cores for 50-200 frames. Recipe "
                "and figures: docs/fit.md.")
@@ -82,11 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "(its altitudes, pitches and camera; the objects do not matter), to "
                    f"generate with `--preset NAME --config OUT` ({', '.join(PRESETS)}; "
                    "default: none, the generator's defaults)")
-    p.add_argument("--grade", action=argparse.BooleanOptionalAction, default=True,
+    p.add_argument("--grade", action=argparse.BooleanOptionalAction, default=False,
                    help="also fit the site grade (the camera's last stage: the water's "
                         "colour and detail mapped to the footage's, chosen by the realism "
                         "classifier), written beside the config as OUT's name + .grade.json "
-                        "and named in it (default: on; none when no grade helps)")
+                        "and named in it (default: off: on the real frames measured so far it "
+                        "lowers the classifier at the fit but not on the generated set, "
+                        "docs/fit.md; none when no grade helps)")
     add_verbosity_flags(p)
     return p
 

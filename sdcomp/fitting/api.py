@@ -100,7 +100,7 @@ def fit_footage(frames: str | Path, labels: str | Path | None = None,
                 sprites_dir: str | Path | None = DEFAULT_SPRITES,
                 groups: tuple[str, ...] | None = None, passes: int = 2, seed: int = 0,
                 log: Callable[[str], None] | None = None,
-                fov: float | None = None, grade: bool = True,
+                fov: float | None = None, grade: bool = False,
                 preset_name: str | None = None) -> FitResult:
     """Measure the footage at ``frames`` (folder or file of photos and videos; ``labels``
     COCO json / YOLO folder keep objects out) and search the generator's settings that match
