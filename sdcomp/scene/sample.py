@@ -72,8 +72,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur, overrides=config.look_overrides())
     water, look = expose(water, look)
-    # stages left out (the draws stay the same) and the site grade
-    look = replace(look, off=config.camera_off, grade=config.grade)
+    look = replace(look, off=config.camera_off, grade=config.grade)  # draws stay the same
     scale = max(model.width, model.height) / 416.0
     defocus = rng.uniform(0.6, 1.4) * scale if rng.random() < config.defocus_blur else None
     quality = int(config.jpeg_quality.sample(rng))
