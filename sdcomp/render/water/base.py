@@ -74,7 +74,7 @@ def scratch(name: str, shape: tuple, dtype=np.uint8) -> np.ndarray:
     if cache is None:
         cache = _local.bufs = {}
     dt = np.dtype(dtype)
-    n = int(np.prod(shape))
+    n = math.prod(shape)
     key = (name, dt.str)
     a = cache.get(key)
     if a is None or a.size < n:

@@ -24,6 +24,7 @@ from .base import (
     to_u8,
 )
 from .coarse import facets, quantum
+from .detile import mosaic
 from .layers import level_runs, resize_box
 from .optics import luminance
 from .sky import Sky
@@ -232,7 +233,10 @@ EDGE_SHARE, CORNER_SHARE, MAX_SHARE = 0.52, 0.45, 1.0
 def _noise_window(nt: np.ndarray, n0: int, n1: int, hh: int, ww: int,
                   name: str) -> np.ndarray:
     """The (hh, ww) window of the periodic glitter noise ``nt`` from texel (n0, n1): a
-    view when it fits, else wrapped into the scratch array ``name``."""
+    view when it fits, else wrapped into the scratch array ``name``; a window larger than
+    the tile is a :func:`~sdcomp.render.water.detile.mosaic` of it (no repeats)."""
+    if hh > nt.shape[0] or ww > nt.shape[1]:
+        return mosaic(nt, n0, n1, hh, ww, scratch(name, (hh, ww), np.float32))
     n0, n1 = n0 % nt.shape[0], n1 % nt.shape[1]
     if n0 + hh <= nt.shape[0] and n1 + ww <= nt.shape[1]:
         return nt[n0:n0 + hh, n1:n1 + ww]

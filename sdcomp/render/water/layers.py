@@ -1,14 +1,17 @@
-"""The per-pixel wave layers: level tiles seen through the camera (straight down: tile crops, one
-texel per pixel; oblique: one remap per run of rows of one level, cross-faded at level
-changes)."""
+"""The per-pixel wave layers: level tiles seen through the camera, read without repeating
+(:mod:`sdcomp.render.water.detile`; straight down: a window of world texels, one texel per
+pixel; oblique and turned views: remapped per run of rows of one level from windows around
+them, cross-faded at level changes)."""
 
 from __future__ import annotations
+
+import math
 
 import cv2
 import numpy as np
 
-from ...util.tiles import wrap_window
 from .base import LAYERS, scratch, tick
+from .detile import PLAIN, remap_rows, window
 from .geometry import row_geometry
 from .textures import N_LEVELS, N_TILE, WaterTextures, pitch
 from .waves import level_continuous
@@ -20,9 +23,12 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
     resolution, ``b4`` of level ``l + 2`` at 1/4 and ``c4`` of level ``l + 4`` at 1/16 of
     the resolution (their samples at the centres of 4 x 4 and 16 x 16 blocks), with the
     level of their rows
-    (``levels_a`` ...). Straight down: crops of the tiles, one texel per sample. Oblique:
-    the tiles sampled through the camera, rows along tile rows; rows near a level change
-    cross-fade the two levels."""
+    (``levels_a`` ...). Straight down: windows of the levels' world texels, one texel per
+    sample. Oblique: the levels sampled through the camera, rows along tile rows; rows near
+    a level change cross-fade the two levels. Every read goes through
+    :mod:`~sdcomp.render.water.detile` (cells of the tile at their own offsets: nothing
+    repeats within a frame) but a still's reads no larger than ``PLAIN`` texels, which come
+    from the tile itself."""
     w, h = plan.width, plan.height
     r0 = plan.sea_row0
     hs = h - r0
@@ -37,12 +43,16 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
             if lev >= N_LEVELS:
                 dst[:] = _neutral(wl)
             elif rot is not None:
-                _nadir_warp(textures.ensure(s, lev), plan, alt, div, pitch(lev), rot, dst)
+                _nadir_warp(textures, s, lev, plan, alt, div, rot, dst)
             else:
                 p = pitch(lev)
-                ox = int(world_off[0] / p) % N_TILE
-                oy = int(world_off[1] / p) % N_TILE
-                dst = _periodic_crop(textures.ensure(s, lev), ox, oy, wl, hl, dst)
+                x0, y0 = int(world_off[0] / p), int(world_off[1] / p)
+                if max(wl, hl) <= PLAIN:  # nothing can repeat: the tile itself
+                    dst = _periodic_crop(textures.ensure(s, lev), x0 % N_TILE, y0 % N_TILE,
+                                         wl, hl)
+                else:
+                    window(textures.ensure(s, lev), (textures.seed, s, lev), x0, y0, wl, hl,
+                           dst)
             levels = np.full(hl, lev, np.int64)
         else:
             # rows and columns at the centres of div x div blocks
@@ -52,7 +62,7 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
             fl = np.where(geo["ok"], level_continuous(np.where(geo["ok"], fp, 1.0)), N_LEVELS)
             x = ((np.arange(wl) + 0.5) * (w / wl) - w / 2) / plan.fx
             levels = _remap_layer(dst, textures, s, fl + off, geo["t"], geo["fwd"], x,
-                                  world_off, name, fade=div < 16, rot=rot)
+                                  world_off, fade=div < 16, rot=rot)
         out[name + "4"] = dst
         out["levels_" + name] = levels
     return out
@@ -61,88 +71,94 @@ def wave_layers(plan, textures: WaterTextures, alt, frame, world_off, row_geo) -
 FADE = 0.08  # level units on each side of a level change over which the levels cross-fade
 
 
-def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, name,
-                 fade: bool = True, rot: dict | None = None) -> np.ndarray:
-    """Fill ``dst`` (rows, cols, 4) with level tiles of set ``s`` sampled through the
-    camera: row ``i`` of level ``ceil(flev[i])`` at tile x ``t_i x_j / p + N/2`` (across
-    the view, tile columns hold x + N/2) and tile y ``t_i fwd_i / p + oy`` (forward); rows
-    within FADE of a level change blend in the neighbouring level. The sampling maps of all
-    rows are made at once; one remap per run of rows of one level. Returns the level of
-    each row (N_LEVELS: none)."""
+def _remap_layer(dst, textures, s, flev, t, fwd, x, world_off, fade: bool = True,
+                 rot: dict | None = None) -> np.ndarray:
+    """Fill ``dst`` (rows, cols, 4) with the levels of set ``s`` sampled through the camera:
+    row ``i`` of level ``ceil(flev[i])`` at tile x ``t_i x_j / p + N/2`` (across the view,
+    tile columns hold x + N/2) and tile y ``t_i fwd_i / p + oy`` (forward); rows within FADE
+    of a level change blend in the neighbouring level (variance-preserving: the two levels'
+    reads are independent). One :func:`~sdcomp.render.water.detile.remap_rows` per run of
+    rows that need a level (its own rows and the fading rows next to them). Returns the
+    level of each row (N_LEVELS: none)."""
     tick()
     levels = np.clip(np.ceil(flev - 1e-9), 0, N_LEVELS).astype(np.int64)
-    xs = np.asarray(x, np.float32)
+    xs = np.asarray(x, np.float64)
     rows, cols = dst.shape[:2]
-    frac = flev - (levels - 1)  # in (0, 1]: position within the level's range
-    mx = scratch("mapx" + name, (rows, cols), np.float32)
-    my = scratch("mapy" + name, (rows, cols), np.float32)
-    _maps(levels, t, fwd, xs, world_off, mx, my, rot)
-    tick("r.maps")
-    for lev, a, b in level_runs(levels):
-        if lev >= N_LEVELS:
-            dst[a:b] = _neutral(cols)
-            continue
-        cv2.remap(_source(textures.ensure(s, lev), rot), mx[a:b], my[a:b], cv2.INTER_LINEAR,
-                  dst=dst[a:b], borderMode=cv2.BORDER_WRAP)
-    tick("r.main")
     # cross-fade zones: towards the coarser level near its boundary, the finer one near
     # the other, half-way at the boundary
-    w_up = np.clip((frac - (1 - FADE)) / (2 * FADE), 0, 0.5)
-    w_dn = np.clip((FADE - frac) / (2 * FADE), 0, 0.5)
-    for step, wts in ((1, w_up), (-1, w_dn)) if fade else ():
+    frac = flev - (levels - 1)  # in (0, 1]: position within the level's range
+    partner = np.full(rows, -1, np.int64)
+    wo = np.zeros(rows)
+    for step, wts in (((1, np.clip((frac - (1 - FADE)) / (2 * FADE), 0, 0.5)),
+                       (-1, np.clip((FADE - frac) / (2 * FADE), 0, 0.5))) if fade else ()):
         sel = (wts > 0.02) & (levels < N_LEVELS) & (levels + step >= 0)
-        if not sel.any():
+        partner[sel] = np.minimum(levels[sel] + step, N_LEVELS)
+        wo[sel] = wts[sel]
+    other = scratch("partner", (rows, cols, 4))
+    tick("r.maps")
+    pl = partner.tolist()
+    done = np.zeros(rows, bool)
+    for lev, a, b in level_runs(levels):
+        a2, b2 = a, b  # with the fading rows next to the run that blend this level in
+        while a2 > 0 and pl[a2 - 1] == lev:
+            a2 -= 1
+        while b2 < rows and pl[b2] == lev:
+            b2 += 1
+        c = _row_coords(np.full(b2 - a2, lev), t[a2:b2], fwd[a2:b2], world_off, rot)
+        if a2 == a and b2 == b:
+            _sample(dst[a:b], textures, s, lev, c, xs, rot is None)
             continue
-        other = np.minimum(levels + step, N_LEVELS)
-        idx = np.flatnonzero(sel)
-        ox = scratch("omapx" + name, (len(idx), cols), np.float32)
-        oy = scratch("omapy" + name, (len(idx), cols), np.float32)
-        _maps(other[idx], t[idx], fwd[idx], xs, world_off, ox, oy, rot)
-        wo_all = scratch("bw" + name, (len(idx), cols), np.float32)
-        wo_all[:] = wts[idx, None]
-        wi_all = scratch("bwi" + name, (len(idx), cols), np.float32)
-        np.subtract(np.float32(1.0), wo_all, out=wi_all)
-        cut = np.flatnonzero((np.diff(idx) != 1) | (np.diff(other[idx]) != 0)) + 1
-        start = 0
-        for stop in [int(c) for c in cut] + [len(idx)]:
-            a, b = int(idx[start]), int(idx[stop - 1]) + 1
-            lev = int(other[a])
-            block = dst[a:b]
-            tmp = scratch("blend" + name, block.shape)
-            if lev >= N_LEVELS:
-                tmp[:] = _neutral(cols)
-            else:
-                cv2.remap(_source(textures.ensure(s, lev), rot), ox[start:stop],
-                          oy[start:stop], cv2.INTER_LINEAR, dst=tmp,
-                          borderMode=cv2.BORDER_WRAP)
-            cv2.blendLinear(block, tmp, wi_all[start:stop], wo_all[start:stop], dst=block)
-            start = stop
+        tmp = scratch("level_rows", (b2 - a2, cols, 4))
+        _sample(tmp, textures, s, lev, c, xs, rot is None)
+        dst[a:b] = tmp[a - a2:b - a2]
+        other[a2:a], other[b:b2] = tmp[:a - a2], tmp[b - a2:]
+        done[a2:a] = done[b:b2] = True
+    for lev, a, b in level_runs(np.where(done, -1, partner)):  # fading rows apart from
+        if lev >= 0:  # their partner's rows (the flat surface past the last level)
+            c = _row_coords(np.full(b - a, lev), t[a:b], fwd[a:b], world_off, rot)
+            _sample(other[a:b], textures, s, lev, c, xs, rot is None)
+    tick("r.main")
+    wl = wo.tolist()
+    for r in np.flatnonzero(partner >= 0).tolist():
+        w = wl[r]
+        # independent reads: weights of unit square sum; a fade to the flat surface past
+        # the last level stays linear (the waves fade out)
+        g = 1.0 if pl[r] >= N_LEVELS else 1.0 / math.hypot(1.0 - w, w)
+        cv2.addWeighted(dst[r], (1.0 - w) * g, other[r], w * g, 128.0 * (1.0 - g), dst=dst[r])
     tick("r.blend")
     return levels
 
 
-def _maps(levels, t, fwd, xs, world_off, mx, my, rot: dict | None = None) -> None:
-    """Remap coordinates of rows at ``levels`` (see :func:`_remap_layer`) into ``mx``,
-    ``my`` (rows, cols) float32; rows wider than twice the tile are wrapped explicitly
-    (slightly wider ones wrap through BORDER_WRAP). With ``rot`` (:func:`_rotation`: a
+def _sample(dst, textures, s: int, lev: int, coords, xs, still: bool) -> None:
+    """Rows of level ``lev`` of set ``s`` at ``coords`` (:func:`_row_coords`) into ``dst``
+    (the flat surface past the last level); ``still``: a still image's (small runs read the
+    tile itself)."""
+    if lev >= N_LEVELS:
+        dst[:] = _neutral(dst.shape[1])
+        return
+    remap_rows(dst, textures.ensure(s, lev), (textures.seed, s, lev), tuple(coords), xs,
+               plain=still)
+
+
+def _row_coords(levels, t, fwd, world_off, rot: dict | None = None) -> list[np.ndarray]:
+    """World texel coordinates of rows at ``levels`` (see :func:`_remap_layer`): (bx, sx,
+    by, sy), (rows,) float64 each, texel ``(bx + sx x, by + sy x)`` at image x ``x``
+    (``t x`` metres right of the camera's nadir). With ``rot`` (:func:`_rotation`: a
     world-fixed frame or a camera away from the world origin) the camera's right and
-    forward axes are turned into the tile frame and the offset is the world position."""
+    forward axes are turned into the tile frame and the offset is the world position: a
+    row's ground point at ``t x`` metres right and ``t fwd`` forward is at ``m @ (right,
+    forward) + off`` metres in the tile frame (column c holding x = c - N/2)."""
     ok = levels < N_LEVELS
     p = pitch(0) * np.exp2(np.where(ok, levels, 0).astype(np.float64))
     tt = np.where(ok & np.isfinite(t), t, 0.0)
-    if rot is not None:
-        _rotated_maps(p, tt, np.where(ok, fwd, 0.0), xs, rot, mx, my)
-        return
-    a = (tt / p).astype(np.float32)
-    ty = np.mod(tt * fwd / p + world_off[1] / p, N_TILE).astype(np.float32)
-    np.multiply(a[:, None], xs[None, :], out=mx)
-    mx += np.float32(N_TILE // 2)
-    if float(np.max(a)) * float(xs[-1] - xs[0]) > 2 * N_TILE:
-        wide = np.flatnonzero(a * float(xs[-1] - xs[0]) > 2 * N_TILE)
-        blk = mx[wide]
-        blk -= np.floor(blk * np.float32(1.0 / N_TILE)) * np.float32(N_TILE)
-        mx[wide] = blk
-    my[:] = ty[:, None]
+    a = tt / p  # texels per unit image x
+    f = tt * np.where(ok, fwd, 0.0) / p  # texels forward
+    if rot is None:
+        return [np.full(len(p), float(N_TILE // 2)), a, f + world_off[1] / p,
+                np.zeros(len(p))]
+    m, off = rot["m"], rot["off"]
+    return [f * m[0, 1] + off[0] / p + N_TILE // 2, a * m[0, 0], f * m[1, 1] + off[1] / p,
+            a * m[1, 0]]
 
 
 def _rotation(frame: dict, world_off) -> dict | None:
@@ -165,63 +181,28 @@ def _rotation(frame: dict, world_off) -> dict | None:
             "origin": org}
 
 
-def _source(tile: np.ndarray, rot: dict | None) -> np.ndarray:
-    """What a layer remaps from: a still's whole (N + 1, N + 1, 4) tile (its maps stay
-    within it but for a texel), a rotated view's (N, N) period of it (a view: remap's
-    BORDER_WRAP then wraps any coordinate exactly, and its maps need no reduction)."""
-    return tile if rot is None else tile[:N_TILE, :N_TILE]
-
-
-def _rotated_maps(p, tt, fwd, xs, rot: dict, mx, my) -> None:
-    """Oblique maps through a rotation: a row's ground point at ``t x`` metres right and
-    ``t fwd`` forward of the camera's nadir is at ``m @ (right, forward) + off`` metres in
-    the tile frame; coordinates in texels (column c holding x = c - N/2), each row's start
-    reduced mod N and rows spanning more than two periods reduced whole (the others wrap in
-    remap: :func:`_source`)."""
-    m, off = rot["m"], rot["off"]
-    a = tt / p  # (rows,) texels per unit image x
-    f = tt * fwd / p  # texels forward
-    width = float(xs[-1] - xs[0]) if len(xs) > 1 else 0.0
-    for out, row, half in ((mx, 0, N_TILE // 2), (my, 1, 0)):
-        base = np.mod(f * m[row, 1] + off[row] / p + half, N_TILE).astype(np.float32)
-        slope = (a * m[row, 0]).astype(np.float32)
-        np.multiply(slope[:, None], xs[None, :], out=out)
-        out += base[:, None]
-        wide = np.flatnonzero(np.abs(slope) * width > 2 * N_TILE)
-        if len(wide):
-            blk = out[wide]
-            blk -= np.floor(blk * np.float32(1.0 / N_TILE)) * np.float32(N_TILE)
-            out[wide] = blk
-
-
-def _nadir_warp(tile: np.ndarray, plan, alt: float, div: int, p: float, rot: dict,
+def _nadir_warp(textures, s: int, lev: int, plan, alt: float, div: int, rot: dict,
                 dst: np.ndarray) -> None:
     """Straight down through a rotation: layer pixel (i, j) (the centre of a div x div block
     of image pixels) at ground ``((j + 0.5) div - W/2) alt/fx`` right and ``((i + 0.5) div
     - H/2) alt/fy`` down of the nadir, in texels of ``div`` footprints (one texel per layer
-    pixel, as the crops), turned into the tile frame, plus the world offset: the still
-    crop's start (the hash part: the same texels as the crop when nothing turns or moves)
-    and the origin in texels of ``div`` footprints (the sea moves with the image); one
-    warpAffine with wrap-around, bicubic."""
+    pixel, as the windows of stills), turned into the tile frame, plus the world offset:
+    the still's window start (the hash part) and the origin in texels of ``div``
+    footprints (the sea moves with the image); bicubic."""
     fpx, fpy = alt / plan.fx, alt / plan.fy
     fp = max(fpx, fpy) * div  # metres per texel
     m = rot["m"]
     sx, sy = div * fpx / fp, div * fpy / fp  # texels per layer pixel along right, down
     hl, wl = dst.shape[:2]
     cj, ci = plan.width / (2 * div) - 0.5, plan.height / (2 * div) - 0.5  # image centre
-    n = N_TILE
-    start = []
-    for ax, size in ((0, wl), (1, hl)):
-        x0 = int(rot["hash"][ax] / p) % n
-        start.append(min(x0, n + 1 - size) if wl <= n + 1 and hl <= n + 1 else x0)
-    aff = np.empty((2, 3))
+    rows = np.arange(hl, dtype=np.float64)
+    coords = []
     for row in range(2):
-        aff[row, 0] = m[row, 0] * sx
-        aff[row, 1] = m[row, 1] * sy
-        aff[row, 2] = (start[row] + (cj, ci)[row] - m[row, 0] * sx * cj - m[row, 1] * sy * ci
-                       + np.mod(rot["origin"][row] / fp, n))
-    cv2.warpAffine(tile[:n, :n], aff, (dst.shape[1], dst.shape[0]), dst=dst,
-                   flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP)
+        c0 = (int(rot["hash"][row] / pitch(lev)) + (cj, ci)[row] - m[row, 0] * sx * cj
+              - m[row, 1] * sy * ci + rot["origin"][row] / fp)
+        coords += [c0 + m[row, 1] * sy * rows, np.full(hl, m[row, 0] * sx)]
+    remap_rows(dst, textures.ensure(s, lev), (textures.seed, s, lev), tuple(coords),
+               np.arange(wl, dtype=np.float64), cv2.INTER_CUBIC)
 
 
 _NEUTRAL: dict = {}
@@ -234,20 +215,6 @@ def _neutral(width: int) -> np.ndarray:
     if row is None:
         row = _NEUTRAL[width] = np.tile(np.array([128, 128, 128, 0], np.uint8), (1, width, 1))
     return row
-
-
-def _periodic_crop(tile: np.ndarray, x0: int, y0: int, cw: int, ch: int,
-                   out: np.ndarray) -> np.ndarray:
-    """A (ch, cw) window of the periodic tile (period N_TILE; the tile has one extra
-    wrapped row and column) starting near texel (x0, y0): a view when it fits (moved left
-    or up if needed: any start is as good), else assembled in ``out`` from wrapped
-    blocks."""
-    n = N_TILE
-    if cw <= n + 1 and ch <= n + 1:
-        x0 = min(x0, n + 1 - cw)
-        y0 = min(y0, n + 1 - ch)
-        return tile[y0:y0 + ch, x0:x0 + cw]
-    return wrap_window(tile[:n, :n], y0, x0, ch, cw, out)
 
 
 def level_runs(levels: np.ndarray):
@@ -281,3 +248,12 @@ def resize_box(grid: np.ndarray, rows: int, width: int, x0: int, y0: int, x1: in
         return sub[y0 - i0 * ch:y1 - i0 * ch, x0 - j0 * cw:x1 - j0 * cw]
     full = cv2.resize(grid, (width, rows), interpolation=cv2.INTER_LINEAR)
     return full[y0:y1, x0:x1]
+
+
+def _periodic_crop(tile: np.ndarray, x0: int, y0: int, cw: int, ch: int) -> np.ndarray:
+    """A (ch, cw) view of the periodic tile (period N_TILE; the tile has one extra wrapped
+    row and column; cw, ch <= N_TILE + 1) starting near texel (x0, y0), moved left or up
+    if needed (any start is as good)."""
+    x0 = min(x0, N_TILE + 1 - cw)
+    y0 = min(y0, N_TILE + 1 - ch)
+    return tile[y0:y0 + ch, x0:x0 + cw]

@@ -12,7 +12,7 @@ from . import optics
 from .base import FACET, FOAM_ALBEDO, LAYERS, Z_SCALE, scratch, tick, to_u8
 from .layers import level_runs, resize_box
 from .optics import luminance
-from .textures import N_LEVELS, SLOPE_SCALE, pitch
+from .textures import N_LEVELS, SLOPE_SCALE, foam_exceedance, pitch
 from .waves import WaveState, layer_weights_at
 
 
@@ -147,15 +147,15 @@ def shade_exact(img, layers, a_srgb, resp, plan, waves) -> None:
 
 
 def add_foam(img, a4, sea, waves: WaveState, gain, a_srgb) -> None:
-    """Whitecaps: where the tile's foam code exceeds that of the coverage (see
+    """Whitecaps: where the tile's foam code exceeds the quantile of the coverage (see
     :mod:`sdcomp.render.water.textures`), the water brightens towards foam (diffuse white under the
-    mean downwelling light), with soft edges."""
+    mean downwelling light), with soft edges (over 0.19 decades of the exceedance
+    probability: from 1.16 W to 0.75 W)."""
     cover = waves.foam * sea["foam_scale"] * float(1.0 - 0.8 * sea["slick"].mean())
     if cover < 1e-4:
         return
-    c0 = -255.0 * math.log10(cover) / 4.0
-    codes = np.arange(256, dtype=np.float32)
-    lut = to_u8(np.clip((codes - (c0 - 4.0)) / 12.0, 0.0, 1.0) * 255.0)  # soft edge
+    decades = -np.log10(np.maximum(foam_exceedance(), 1e-6)) + math.log10(cover)
+    lut = to_u8(np.clip((decades * (255.0 / 4.0) + 4.0) / 12.0, 0.0, 1.0) * 255.0)
     e_d = sea["e_d"].mean(0)
     foam_lin = FOAM_ALBEDO / math.pi * e_d * gain * float(sea["haze"].mean())
     foam = optics.srgb_encode(foam_lin) * 255.0

@@ -14,10 +14,12 @@ one period of band ``l + 1``, two of band ``l``), stored (N + 1, N + 1, 4) uint8
 row and column: bilinear reads never leave the tile): channel 0 the upwind slope, 1 the
 crosswind slope, each ``128 + SLOPE_SCALE * s / sd`` (``sd``: the channel's standard
 deviation: unit-variance codes), channel 2 white Gaussian noise per texel (same coding: the
-graininess of the facets too small to draw), channel 3 a foam-placement field coded by its
-exceedance probability (code ``c``: a fraction ``10**(-4 c / 255)`` of the tile lies above
-it; whitecaps of coverage W where ``c > -255 log10(W) / 4``). (4 channels make OpenCV's
-remap fast.) Set ``k`` holds the wind at ``SET_ANGLES[k]`` degrees from the tile's x
+graininess of the facets too small to draw), channel 3 a unit-variance Gaussian
+foam-placement field, same coding (whitecaps of coverage W where it exceeds the normal
+quantile of 1 - W: :func:`foam_exceedance`). Every channel is a unit-variance Gaussian code
+centred on 128, so that variance-preserving blends of reads at other offsets keep the
+tile's statistics (:mod:`sdcomp.render.water.detile`). (4 channels make OpenCV's remap
+fast.) Set ``k`` holds the wind at ``SET_ANGLES[k]`` degrees from the tile's x
 axis (views align x with the image rows and pick the set nearest the wind: no rotation when
 sampling). Column ``c`` of a tile holds tile x ``c - N/2`` (mod N): rows sampled around x = 0
 stay inside the tile. The renderer draws level ``l`` per pixel, level ``l + 2`` at a quarter of the
@@ -178,8 +180,6 @@ class WaterTextures:
         sd = np.array([su.std(), sc.std()], np.float64)
         self._coef["code_sd"][(s, level)] = sd
         fo = _foam_field(self.seed, level, angle, n)
-        # exceedance probability of the (normal) foam field on a log scale over 4 decades
-        code = -np.log10(np.maximum(_normal_tail(fo), 1e-6)) * np.float32(255.0 / 4)
         out = np.empty((n + 1, n + 1, 4), np.uint8)
         out[:n, :n, 0] = np.clip(su * np.float32(SLOPE_SCALE / sd[0]) + np.float32(128.5),
                                  0, 255)
@@ -188,7 +188,7 @@ class WaterTextures:
         grain = np.random.default_rng([self.seed, 0x62A1, s, level]).standard_normal(
             (n, n)).astype(np.float32)
         out[:n, :n, 2] = np.clip(grain * np.float32(SLOPE_SCALE) + np.float32(128.5), 0, 255)
-        out[:n, :n, 3] = np.clip(code + np.float32(0.5), 0, 255)
+        out[:n, :n, 3] = np.clip(fo * np.float32(SLOPE_SCALE) + np.float32(128.5), 0, 255)
         out[:n, :n] = np.roll(out[:n, :n], n // 2, axis=1)  # column c holds x = c - n/2
         out[n, :n] = out[0, :n]
         out[:, n] = out[:, 0]
@@ -259,10 +259,11 @@ def erfc_nonneg(z: np.ndarray) -> np.ndarray:
     return poly * np.exp(-z * z)
 
 
-def _normal_tail(x: np.ndarray) -> np.ndarray:
-    """P(N > x) for a standard normal N (:func:`erfc_nonneg`)."""
-    half_erfc = 0.5 * erfc_nonneg(np.abs(x) * np.float32(1 / math.sqrt(2)))
-    return np.where(x >= 0, half_erfc, 1.0 - half_erfc).astype(np.float32)
+def foam_exceedance() -> np.ndarray:
+    """(256,) float64: the fraction of a tile whose foam code (channel 3) exceeds each code
+    (the normal tail at ``(code - 128) / SLOPE_SCALE``)."""
+    z = (np.arange(256) - 128.0) / (SLOPE_SCALE * math.sqrt(2.0))
+    return np.array([0.5 * math.erfc(float(v)) for v in z])
 
 
 FOAM_SIZE = (0.5, 4.0)  # metres: sizes of whitecap patches and their streaks
