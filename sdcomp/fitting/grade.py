@@ -187,15 +187,16 @@ def _detail_gains(grade: SiteGrade, generated: np.ndarray, real: np.ndarray) -> 
     ratio, iterated (the bands overlap)."""
     graded = np.stack([apply_colour_grade(p, grade) for p in generated])
     target = np.concatenate([np.sqrt(luma_spectrum(real)), [chroma_detail(real)]])
+    def with_gains(gains: np.ndarray) -> SiteGrade:
+        g = [round(float(v), 4) for v in gains]
+        return replace(grade, spectrum=tuple(g[:-1]), chroma=g[-1])
+
     gains = np.ones(SPECTRUM_BANDS + 1)
     for _ in range(DETAIL_ROUNDS):
-        g = [round(float(v), 4) for v in gains]
-        detail = replace(grade, spectrum=tuple(g[:-1]), chroma=g[-1])
-        done = np.stack([apply_detail_grade(p, detail, 1.0) for p in graded])
+        done = np.stack([apply_detail_grade(p, with_gains(gains), 1.0) for p in graded])
         got = np.concatenate([np.sqrt(luma_spectrum(done)), [chroma_detail(done)]])
         gains = np.clip(gains * target / np.maximum(got, 1e-6), *DETAIL_GAINS)
-    g = [round(float(v), 4) for v in gains]
-    return replace(grade, spectrum=tuple(g[:-1]), chroma=g[-1])
+    return with_gains(gains)
 
 
 def _frame_moments(patches: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

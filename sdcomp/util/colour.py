@@ -8,6 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear R, G, B
+#: Rec. 601 luma weights of encoded (sRGB) R, G, B: the luma of stored images, as codecs and
+#: OpenCV's grey conversion weigh them
+LUMA_601 = np.array([0.299, 0.587, 0.114], np.float32)
 
 
 def _float(c) -> np.ndarray:

@@ -34,12 +34,13 @@ import cv2
 import numpy as np
 
 from ...errors import UserError
+from ...util.colour import LUMA_601
 from ...util.files import atomic_write_bytes
 
 FORMAT = "sdcomp-grade-1"  #: the ``format`` field of a grade file
 GAIN_RANGE = (0.0, 8.0)  #: detail gains outside this are refused
 MIN_GAIN_STEP = 0.03  #: detail gains within this of 1 are not applied
-LUMA = np.array([0.299, 0.587, 0.114], np.float32)  #: Rec. 601 luma weights (R, G, B)
+LUMA = LUMA_601  #: Rec. 601 luma weights of the stored image's R, G, B (float32)
 SPECTRUM_BANDS = 8  #: frequency bands of the spectrum's gains
 #: (SPECTRUM_BANDS + 1,) cycles per fitted pixel: the bands' edges (those of the realism
 #: classifier's spectrum features on 64 px patches, sdcomp.report.realism.classifier)

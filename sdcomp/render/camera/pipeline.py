@@ -50,7 +50,7 @@ import numpy as np
 from ...scene.look import STAGES, CameraLook
 from ..effects import blur
 from .codec import block_compress, unsharp
-from .grade import apply_colour_grade, apply_grade, load_grade
+from .grade import SiteGrade, apply_colour_grade, apply_grade, load_grade
 from .lens import lens_maps
 from .photometric import (
     Photometric,
@@ -321,13 +321,20 @@ def _compression(out: np.ndarray, run: _Run) -> np.ndarray:
     return out
 
 
+def _site_grade(run: _Run) -> SiteGrade | None:
+    """The look's site grade when it runs: switched on, named and not the identity."""
+    if "grade" not in run.on or run.look.grade is None:
+        return None
+    grade = load_grade(run.look.grade)
+    return None if grade.identity else grade
+
+
 def _grade(out: np.ndarray, run: _Run) -> np.ndarray:
     """10. The site grade (:mod:`.grade`), where the look has one."""
-    if "grade" in run.on and run.look.grade is not None:
-        grade = load_grade(run.look.grade)
-        if not grade.identity:
-            out = apply_grade(out, grade)
-            run.ran.append("grade")
+    grade = _site_grade(run)
+    if grade is not None:
+        out = apply_grade(out, grade)
+        run.ran.append("grade")
     run.clock("grade")
     return out
 
@@ -338,7 +345,7 @@ def _huge(image: np.ndarray, run: _Run, noise_tile: np.ndarray | None) -> np.nda
     look = run.look
     sat = "colour" in run.on and abs(look.saturation - 1) >= THRESHOLDS["saturation"]
     lut = "photometric" in run.on and not table.identity
-    grade = load_grade(look.grade) if "grade" in run.on and look.grade is not None else None
+    grade = _site_grade(run)
     rows = max(1, HUGE_BAND_PIXELS // run.width)
     for y in range(0, run.height, rows):
         band = image[y:y + rows]

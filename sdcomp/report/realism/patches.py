@@ -29,12 +29,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ...util.colour import LUMA_601
 from ...util.tiles import grid_patches
 
 PATCH = 64  #: patch side, pixels
 BLUR = 9  #: box-blur side of the high-pass filter, pixels
 GLINT_LEVEL = 230.0  #: luminance at or above which a pixel counts as glint (8-bit levels)
-LUMA = np.array([0.299, 0.587, 0.114], np.float32)  #: Rec. 601 luma weights of R, G, B
+LUMA = LUMA_601  #: Rec. 601 luma weights of R, G, B (float32)
 METRICS = ("saturation", "luminance", "highpass_std", "glint_fraction")
 PERCENTILES = (10, 50, 90)
 
