@@ -35,7 +35,7 @@ from .assets import sar
 from .assets.library import MeshSpec, build_builtin, is_builtin
 from .assets.mesh import ColoredMesh
 from .assets.meshfile import safe_name
-from .atlas.builtin import CLUTTER_ATLAS, object_atlas
+from .atlas.builtin import clutter_atlas, object_atlas
 from .atlas.cache import announce_build, ensure_atlas, missing_atlases, sprites_folder
 from .atlas.sprites import SpriteSource
 from .atlas.store import AtlasConfig
@@ -45,6 +45,7 @@ from .render.compositor import Compositor, RenderAssets
 from .render.photos import Backgrounds
 from .render.textures import Textures
 from .scene.config import GeneratorConfig
+from .scene.moorings import ASSETS as MOORING_ASSETS
 from .scene.objects import (
     CLUTTER_PREFIX,
     clutter_assets,
@@ -180,6 +181,8 @@ def _sprite_jobs(config: GeneratorConfig) -> list[tuple[str, str, bool]]:
     if config.clutter > 0:
         jobs += [(key, clutter_mesh_name(key), True)
                  for kind in config.clutter_kinds for key in clutter_assets(kind)]
+    if config.moored > 0:
+        jobs += [(key, clutter_mesh_name(key), True) for key in MOORING_ASSETS]
     first: dict[str, tuple[str, str, bool]] = {}
     for job in jobs:
         first.setdefault(job[0], job)
@@ -200,7 +203,7 @@ def _all_sprites(config: GeneratorConfig, folder: Path, progress: bool | None,
     sprites: dict[str, SpriteSource] = {}
     for key, name, clutter in jobs:
         mesh = _clutter_mesh(key) if clutter else _load_object(key)
-        atlas_config = CLUTTER_ATLAS if clutter else object_atlas(mesh, object_kind(key))
+        atlas_config = clutter_atlas(mesh) if clutter else object_atlas(mesh, object_kind(key))
         rebuild = (key.removeprefix(CLUTTER_PREFIX) == mesh.name) if clutter else is_builtin(key)
         sprites[key] = _sprites(mesh, atlas_config, folder,
                                 False if bar is not None else progress, workers, rebuild)

@@ -13,6 +13,16 @@ real-world sizes (metres, x forward, y port, z up):
 - ``foam``: a flat irregular foam patch about 1.5 m across and 25 mm thick, with two holes;
   its top stands 10 mm above the water.
 
+Two kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet skis
+(:mod:`sdcomp.scene.moorings`) rather than at random:
+
+- ``dock``: a fixed walkway 8 m long and 1.2 m wide, its deck 0.45 m above the water: 42
+  light grey composite boards across two stringers, on 10 posts; lake docks are mostly
+  aluminium frames with white or grey decking.
+- ``canopy``: a boat lift 7.2 m long and 3.3 m wide under a white fabric canopy, the
+  canopy's crown 3.6 m above the water (a vinyl sheet on an arched frame over four corner
+  posts, the lift's cradle under it): from the air a white rounded roof and its shadow.
+
 Every mesh is deterministic, closed (watertight) and re-centred on its bounding box; each face
 keeps the sRGB colour of the part it comes from.
 """
@@ -29,7 +39,9 @@ from ..errors import UserError
 from .mesh import ColoredMesh
 from .solids import RGB, box_between, ellipsoid, finish, paint
 
-KINDS = ("buoy", "log", "boat", "foam")
+KINDS = ("buoy", "log", "boat", "foam", "dock", "canopy")
+#: the kinds that are moorings, drawn beside moored objects instead of as random clutter
+MOORINGS = ("dock", "canopy")
 
 # sRGB colours of the parts.
 BUOY_RED = (230, 80, 30)
@@ -42,6 +54,10 @@ FLOOR = (90, 95, 100)
 THWART = (160, 120, 80)
 MOTOR = (60, 60, 62)
 FOAM = (235, 235, 230)
+DECK = (196, 196, 188)
+DOCK_FRAME = (150, 152, 150)
+CANOPY = (236, 236, 230)
+LIFT_FRAME = (170, 172, 170)
 
 _SEG = 48  # circular segments for large round parts
 _SEG_S = 16  # ... for small ones
@@ -172,7 +188,65 @@ def _foam() -> ColoredMesh:
     return finish(slab, colours, FOAM_THICKNESS - FOAM_FREEBOARD, "foam")
 
 
-_BUILDERS = {"buoy": _buoy, "log": _log, "boat": _boat, "foam": _foam}
+# --------------------------------------------------------------------------- moorings
+
+DOCK_LENGTH, DOCK_WIDTH, DOCK_DECK = 8.0, 1.2, 0.45  # metres; deck top above the water
+DOCK_BOARD, DOCK_GAP = 0.17, 0.02  # boards across the walkway, the gaps between them
+CANOPY_LENGTH, CANOPY_WIDTH, CANOPY_CROWN = 7.2, 3.3, 3.6  # metres; crown above the water
+CANOPY_RISE = 0.55  # metres from the canopy's eaves to its crown
+POST_DEPTH = 1.0  # metres: how far posts reach under the water (their feet do not show)
+
+
+def _dock() -> ColoredMesh:
+    """Boards across two stringers (z = 0 is the water) on five pairs of posts."""
+    colours: dict[int, RGB] = {}
+    half_l, half_w, top = DOCK_LENGTH / 2, DOCK_WIDTH / 2, DOCK_DECK
+    pitch = DOCK_BOARD + DOCK_GAP
+    n = int(DOCK_LENGTH // pitch)
+    x0 = -n * pitch / 2 + DOCK_GAP / 2
+    boards = [box_between([x0 + i * pitch, -half_w, top - 0.03],
+                          [x0 + i * pitch + DOCK_BOARD, half_w, top]) for i in range(n)]
+    deck = paint(m3.Manifold.batch_boolean(boards, m3.OpType.Add), DECK, colours)
+    frame = [box_between([-half_l, s * half_w - 0.06, top - 0.2], [half_l, s * half_w + 0.06,
+                                                                  top - 0.03])
+             for s in (-1, 1)]
+    frame += [box_between([x - 0.06, s * (half_w - 0.1) - 0.06, -POST_DEPTH],
+                          [x + 0.06, s * (half_w - 0.1) + 0.06, top - 0.2])
+              for x in np.linspace(-half_l + 0.2, half_l - 0.2, 5) for s in (-1, 1)]
+    legs = paint(m3.Manifold.batch_boolean(frame, m3.OpType.Add), DOCK_FRAME, colours)
+    return finish(m3.Manifold.batch_boolean([deck, legs], m3.OpType.Add), colours, 0.0, "dock")
+
+
+def _canopy() -> ColoredMesh:
+    """An arched shell (a slice of a cylinder along x) on four posts, a cradle of two bunks
+    under it (z = 0 is the water)."""
+    colours: dict[int, RGB] = {}
+    half_l, half_w = CANOPY_LENGTH / 2, CANOPY_WIDTH / 2
+    # the arch through the eaves (+-half_w, crown - rise) and the crown (0, crown)
+    r = (half_w ** 2 + CANOPY_RISE ** 2) / (2 * CANOPY_RISE)
+    axis_z = CANOPY_CROWN - r
+    outer = m3.Manifold.cylinder(2 * half_l, r, r, 96).rotate([0, 90, 0]).translate(
+        [-half_l, 0, axis_z])
+    inner = m3.Manifold.cylinder(2 * half_l + 0.2, r - 0.04, r - 0.04, 96).rotate(
+        [0, 90, 0]).translate([-half_l - 0.1, 0, axis_z])
+    eaves = CANOPY_CROWN - CANOPY_RISE
+    shell = (outer - inner) ^ box_between([-half_l, -half_w, eaves], [half_l, half_w,
+                                                                      CANOPY_CROWN + 0.1])
+    roof = paint(shell, CANOPY, colours)
+    posts = [box_between([sx * (half_l - 0.1) - 0.05, sy * (half_w - 0.1) - 0.05, -POST_DEPTH],
+                         [sx * (half_l - 0.1) + 0.05, sy * (half_w - 0.1) + 0.05, eaves + 0.05])
+             for sx in (-1, 1) for sy in (-1, 1)]
+    posts += [box_between([-half_l + 0.3, s * 0.65 - 0.08, 0.15], [half_l - 0.3, s * 0.65 + 0.08,
+                                                                   0.3])
+              for s in (-1, 1)]
+    posts += [box_between([sx * (half_l - 0.1) - 0.05, -half_w + 0.05, 0.05],
+                          [sx * (half_l - 0.1) + 0.05, half_w - 0.05, 0.15]) for sx in (-1, 1)]
+    frame = paint(m3.Manifold.batch_boolean(posts, m3.OpType.Add), LIFT_FRAME, colours)
+    return finish(roof + frame, colours, 0.0, "canopy")
+
+
+_BUILDERS = {"buoy": _buoy, "log": _log, "boat": _boat, "foam": _foam, "dock": _dock,
+             "canopy": _canopy}
 
 
 def build(kind: str) -> ColoredMesh:

@@ -10,7 +10,9 @@ store, chosen per kind so that the first build of every kind takes about a minut
   each variant's sprite is made larger (:func:`sprite_size`: up to 1.5 times, to 128 or 192
   px) when its bounding sphere is much wider than its footprint (a sailboat's mast, an
   upright swimmer's legs, a spar buoy), so that the visible part keeps its pixels;
-- clutter (:data:`CLUTTER_ATLAS`): 64 px, 3x3, 104 poses, whatever the mesh.
+- clutter (:data:`CLUTTER_ATLAS`): 64 px, 3x3, 104 poses, whatever the mesh; moorings
+  (docks, canopied lifts, 7-8 m long beside the objects they hold) 256 px at 2x2
+  (:data:`MOORING_ATLAS`: 3-4 cm a pixel, as fine as a 3 m jet ski's 128 px).
 
 Sprites are square; their pixel pitch (metres per pixel) covers the mesh's bounding sphere
 at every pose (:func:`sdcomp.atlas.store.metres_per_pixel`).
@@ -23,6 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..assets.clutter import MOORINGS
 from ..assets.mesh import ColoredMesh
 from .poses import PoseGrid
 from .store import AtlasConfig
@@ -31,6 +34,8 @@ from .store import AtlasConfig
 COARSE_GRID = PoseGrid(off_nadir_step=15.0, max_error=10.0)
 #: atlas parameters of clutter meshes: small sprites, the coarse pose grid
 CLUTTER_ATLAS = AtlasConfig(size=64, supersample=3, grid=COARSE_GRID)
+#: atlas parameters of the moorings (:data:`sdcomp.assets.clutter.MOORINGS`)
+MOORING_ATLAS = AtlasConfig(size=256, supersample=2, grid=COARSE_GRID)
 #: base atlas parameters of each search-and-rescue kind (see :func:`sprite_size`)
 KIND_ATLAS = {
     "swimmer": AtlasConfig(size=128, supersample=3, grid=COARSE_GRID),
@@ -65,3 +70,9 @@ def object_atlas(mesh: ColoredMesh, kind: str | None) -> AtlasConfig:
         return AtlasConfig()
     base = KIND_ATLAS[kind]
     return replace(base, size=sprite_size(mesh, base.size))
+
+
+def clutter_atlas(mesh: ColoredMesh) -> AtlasConfig:
+    """The atlas parameters of ``mesh`` as clutter: :data:`MOORING_ATLAS` for a mooring,
+    else :data:`CLUTTER_ATLAS`."""
+    return MOORING_ATLAS if mesh.name in MOORINGS else CLUTTER_ATLAS

@@ -181,6 +181,9 @@ class GeneratorConfig:
                                "wake: a factor on each kind's chance (boats 0.5, jet skis "
                                "0.6, swimmers 0.4, BlueROV2 0.3; 0: all at rest)", "X", 0.0,
                                2.5)
+    moored: float = setting(0.0, "float", "chance that a boat or jet ski lies at rest at a "
+                            "dock, often beside a canopied boat lift (lakes, marinas)", "P",
+                            0.0, 1.0)
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")
@@ -328,8 +331,7 @@ class GeneratorConfig:
     @property
     def look_preset(self) -> str:
         """The camera look's preset: ``look``, or for ``auto`` the camera's (mavic2pro for a
-        custom camera), and ``clean`` over your own footage (``backgrounds``: it has been
-        through a camera already)."""
+        custom camera), ``clean`` over your own footage (``backgrounds``: it has been filmed)."""
         if self.look != "auto":
             return self.look
         if self.backgrounds:
@@ -364,10 +366,8 @@ class GeneratorConfig:
 
     def to_toml(self) -> str:
         """The whole config as TOML text; ``load_toml`` + :meth:`from_mapping` of it give an
-        equal config (``--dump-config`` prints it, ``--config FILE`` reads it back).
-
-        Unset optional fields (None) are left out: their default is None.
-        """
+        equal config (``--dump-config`` prints it, ``--config FILE`` reads it back); unset
+        optional fields (None, their default) are left out."""
         from .. import __version__
 
         lines = [f"# sdcomp generator config: every field, resolved (sdcomp {__version__})",

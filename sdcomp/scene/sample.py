@@ -17,6 +17,7 @@ from .camera import CameraModel, CameraPose, camera_basis, ground_point, ground_
 from .config import MAX_INSTANCES, GeneratorConfig
 from .look import CameraLook
 from .look_table import sample_look
+from .moorings import moor
 from .objects import (
     CLUTTER_PREFIX,
     clutter_assets,
@@ -47,11 +48,6 @@ def object_asset(config: GeneratorConfig, k: int) -> str:
     return object_assets(config.objects[k].mesh)[0]
 
 
-def clutter_asset(kind: str) -> str:
-    """Asset key of the clutter kind ``kind`` (its first variant's)."""
-    return clutter_assets(kind)[0]
-
-
 def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None = None
                  ) -> Scene:
     """Draw the scene of image ``index``; a pure function of (config, index)."""
@@ -68,6 +64,8 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     hills = int(rng.integers(2**31)) if rng.random() < config.hills else None
     placements = _travel(np.random.default_rng([int(config.seed), int(index), 0x3A4E]),
                          config, _placements(rng, config, model, pose, shore))
+    placements = moor(np.random.default_rng([int(config.seed), int(index), 0x400D]),
+                      config.moored, placements, shore)
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur, overrides=config.look_overrides())

@@ -59,11 +59,11 @@ def _nearest(labels: np.ndarray, lens: LensMaps, x0: int, y0: int, x1: int, y1: 
     """Output window [y0:y1, x0:x1] of ``labels`` remapped by nearest neighbour with the
     green geometry."""
     if lens.nearest is not None:
-        return cv2.remap(labels, lens.nearest[y0:y1, x0:x1],  # type: ignore[call-overload]
+        return cv2.remap(labels, lens.nearest[y0:y1, x0:x1],  # type: ignore[call-overload, unused-ignore]
                          None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
     out = np.empty((y1 - y0, x1 - x0) + labels.shape[2:], labels.dtype)
     for a, b in _bands(y1, x1 - x0, y0):
-        out[a - y0:b - y0] = cv2.remap(  # type: ignore[call-overload]
+        out[a - y0:b - y0] = cv2.remap(  # type: ignore[call-overload, unused-ignore]
             labels, lens.grid.nearest(x0, a, x1, b), None, cv2.INTER_NEAREST,
             borderMode=cv2.BORDER_REPLICATE).reshape((b - a, x1 - x0) + labels.shape[2:])
     return out

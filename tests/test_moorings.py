@@ -1,0 +1,153 @@
+"""Moored boats and jet skis (``--moored``): a dock alongside, often a canopied lift on the
+other side, the object at rest; the moorings are clutter (never annotated) and change
+nothing else of a scene."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sdcomp.errors import UserError
+from sdcomp.scene.config import GeneratorConfig
+from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam
+from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius
+from sdcomp.scene.sample import sample_scene
+from sdcomp.scene.scene import Role
+
+LAKE = {"camera": "custom", "fov": 23.54, "sensor_px": [800, 600], "width": 800,
+        "height": 600, "altitude": "115-125", "pitch": 90, "count": "1-4", "water": "lake",
+        "objects": [{"mesh": "boat", "weight": 0.3}, {"mesh": "jetski", "weight": 0.7}]}
+
+
+def _config(**kw) -> GeneratorConfig:
+    return GeneratorConfig.from_mapping({**LAKE, **kw})
+
+
+def _body(obj, p) -> tuple[float, float]:
+    """(along, across) metres of placement ``p``'s centre in ``obj``'s body frame."""
+    h = math.radians(obj.heading)
+    dx, dy = p.x - obj.x, p.y - obj.y
+    return dx * math.cos(h) + dy * math.sin(h), -dx * math.sin(h) + dy * math.cos(h)
+
+
+def test_clear_tells_a_disc_inside_beside_and_off_a_corner():
+    half = (4.0, 0.6)
+    assert not clear(0.0, 0.0, 0.0, half, [(3.0, 0.0, 0.1)])  # on the walkway
+    assert not clear(0.0, 0.0, 0.0, half, [(0.0, 1.0, 0.5)])  # reaching over its side
+    assert clear(0.0, 0.0, 0.0, half, [(0.0, 1.2, 0.5)])  # beside it
+    assert clear(0.0, 0.0, 0.0, half, [(4.5, 1.1, 0.6)])  # off the corner (0.71 m away)
+    assert not clear(0.0, 0.0, 90.0, half, [(0.0, 3.0, 0.5)])  # turned: along y now
+
+
+def test_unmoored_scenes_are_those_of_before():
+    """``moored`` 0 draws nothing more: the scene equals the one drawn with the moorings'
+    stream never used, and a moored run keeps every placement's place, heading and asset,
+    the other clutter included, only adding moorings after them."""
+    plain, moored = _config(), _config(moored=1.0)
+    for i in range(40):
+        a, b = sample_scene(plain, i), sample_scene(moored, i)
+        n = len(a.placements)
+        assert [(p.asset, p.x, p.y, p.heading) for p in a.placements] == [
+            (p.asset, p.x, p.y, p.heading) for p in b.placements[:n]]
+        assert all(p.role is Role.CLUTTER and p.asset in ASSETS for p in b.placements[n:])
+        assert replace(a, placements=()) == replace(b, placements=())
+
+
+def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
+    """With ``moored`` 1 each boat and jet ski (unless its dock would cover another
+    object) lies at rest and level beside a dock parallel to it: across it by its half
+    beam, a gap of 0.3-0.9 m and the dock's half width, within 2 m of its middle along it;
+    canopies on the other side, on about 60 % of them."""
+    config = _config(moored=1.0, count="1-3", clutter=0)
+    objects = docks = canopies = 0
+    for i in range(60):
+        scene = sample_scene(config, i)
+        objs = [p for p in scene.placements if p.role is Role.OBJECT]
+        moorings = [p for p in scene.placements if p.asset in ASSETS]
+        for obj in objs:
+            objects += 1
+            assert obj.speed == 0.0 and obj.roll == 0.0 and obj.pitch == 0.0
+            beam = half_beam(obj.asset)
+            near = [(m, *_body(obj, m)) for m in moorings
+                    if abs(math.remainder(m.heading - obj.heading, 360.0)) < 1e-9]
+            dock = [(along, across) for m, along, across in near if m.asset.endswith("dock")
+                    and beam + 0.3 + HALF_SIZE["dock"][1] - 1e-6 <= abs(across)
+                    <= beam + 0.9 + HALF_SIZE["dock"][1] + 1e-6 and abs(along) <= 2.0]
+            docks += len(dock) >= 1
+            side = [a for _, a in dock]
+            canopies += any(m.asset.endswith("canopy") and abs(across) > beam
+                            and side and np.sign(across) != np.sign(side[0])
+                            for m, _, across in near)
+    assert objects > 80
+    assert docks >= 0.8 * objects
+    assert 0.4 * docks <= canopies <= 0.8 * docks
+
+
+def test_moorings_keep_off_the_other_objects():
+    """No mooring's rectangle covers the disc of an object it does not hold, nor of any
+    clutter: crowded scenes of moored objects leave some without a dock instead."""
+    config = _config(moored=1.0, count="6-10", clutter=3.0)
+    checked = 0
+    for i in range(40):
+        placements = sample_scene(config, i).placements
+        moorings = [p for p in placements if p.asset in ASSETS]
+        others = [p for p in placements if p.asset not in ASSETS
+                  and not p.asset.endswith("foam")]
+        for m in moorings:
+            kind = m.asset.removeprefix(CLUTTER_PREFIX)
+            holders = [p for p in others if p.role is Role.OBJECT and abs(math.remainder(
+                p.heading - m.heading, 360.0)) < 1e-9]
+            assert len(holders) == 1
+            # the disc of the object it holds is a rough circle about a long body: the
+            # mooring lies inside it, beside the body (the first test)
+            discs = [(p.x, p.y, footprint_radius(p.asset) * 0.999) for p in others
+                     if p is not holders[0]]
+            assert clear(m.x, m.y, m.heading, HALF_SIZE[kind], discs)
+            checked += 1
+    assert checked > 100
+
+
+def test_moored_is_checked_and_kept_in_config_files():
+    assert GeneratorConfig().moored == 0.0
+    again = GeneratorConfig.from_mapping(dict(_config(moored=0.5).to_dict()))
+    assert again.moored == 0.5
+    for bad in (-0.1, 1.5, "often"):
+        with pytest.raises(UserError, match="moored"):
+            _config(moored=bad)
+
+
+def test_moored_images_draw_docks_that_are_not_labelled(sprites_dir):
+    """The moorings are drawn (bright deck and canopy pixels beside the object, none of
+    them in its mask) and the labels are those of the objects alone."""
+    from sdcomp import Generator
+
+    config = _config(moored=1.0, count="1", clutter=0, look="clean", motion_blur=0,
+                     defocus_blur=0, width=400, height=300, sensor_px=[400, 300],
+                     objects=[{"mesh": "jetski"}], sun_elevation="50-60", wind="1-2")
+    plain = replace(config, moored=0.0)
+    gen, gen0 = Generator(config, sprites_dir), Generator(plain, sprites_dir)
+    changed = 0
+    for i in range(4):
+        f, f0 = gen.render(i), gen0.render(i)
+        assert len(f.objects) == len(f0.objects) == 1
+        diff = np.abs(f.image.astype(int) - f0.image.astype(int)).max(axis=2) > 30
+        mask = f.instances > 0
+        changed += int(diff.sum() > 2000)
+        # what changed is the moorings, outside the object's mask (in it: its tilt and
+        # wake, which a moored object has not, and the shadows cast on it)
+        assert (diff & ~mask).sum() >= 5 * (diff & mask).sum()
+        assert int(mask.sum()) == pytest.approx(int((f0.instances > 0).sum()), rel=0.2)
+    assert changed >= 3
+
+
+def test_overlap_of_turned_rectangles():
+    from sdcomp.scene.moorings import overlap
+
+    dock = (0.0, 0.0, 0.0, (4.0, 0.6))
+    assert overlap(dock, (0.0, 1.0, 0.0, (1.0, 0.5)))
+    assert not overlap(dock, (0.0, 1.2, 0.0, (1.0, 0.5)))
+    assert overlap(dock, (4.5, 0.0, 45.0, (1.0, 0.2)))  # a turned end over its end
+    assert not overlap(dock, (5.5, 1.5, 45.0, (1.0, 0.2)))  # beyond its corner
