@@ -55,13 +55,15 @@ def extruded(alpha: np.ndarray, height: np.ndarray | None, step: tuple[float, fl
 def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     """Darken the background under ``layer``'s shadow (in place; its coverage
     :func:`extruded` by the heights above the water): the shadow takes
-    ``shadow_strength`` of the linear light, so sRGB levels keep ``(1 - s a)**(1 / 2.2)``
+    ``shadow_strength`` of the linear light (per channel), so sRGB levels keep
+    ``(1 - s a)**(1 / 2.2)``
     (``a`` the shadow's blurred coverage, quantised to 256 steps: one table look-up and one
     multiply per pixel). Wide blurs are made on a copy reduced by an integer factor (sigma
     under twice :data:`SHADOW_BLUR_WORK` pixels there) and magnified back band by band of
     :data:`BAND_PIXELS` over the frame's part only (no full-size copy of a shadow wider
     than the frame)."""
-    if layer.shadow_strength <= 0.01:
+    strength = np.asarray(layer.shadow_strength, np.float64).reshape(-1)
+    if float(strength.max()) <= 0.01:
         return
     x0, y0, x1, y1 = layer.roi
     h, w = image.shape[:2]
@@ -89,8 +91,10 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     ax1, ay1 = min(sx + a8.shape[1] * f, w), min(sy + a8.shape[0] * f, h)
     if ax1 <= ax0 or ay1 <= ay0:
         return
-    table = np.clip(np.rint(255.0 * (1.0 - layer.shadow_strength * np.arange(256) / 255.0)
+    # one 256-entry table per channel (a shadow takes more of the red: the sun is warmer)
+    table = np.clip(np.rint(255.0 * (1.0 - np.arange(256)[:, None] / 255.0 * strength)
                             ** (1 / 2.2)), 0, 255).astype(np.uint8)
+    tables = [np.ascontiguousarray(table[:, c % len(strength)]) for c in range(3)]
     rows = max(1, BAND_PIXELS // (ax1 - ax0))
     for a in range(ay0, ay1, rows):
         b = min(a + rows, ay1)
@@ -102,9 +106,10 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
             sub = cv2.warpAffine(a8, m, (ax1 - ax0, b - a),
                                  flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                  borderMode=cv2.BORDER_REPLICATE)
-        keep = cv2.LUT(np.ascontiguousarray(sub), table)
+        sub = np.ascontiguousarray(sub)
         region = image[a:b, ax0:ax1]
-        cv2.multiply(region, cv2.merge([keep, keep, keep]), dst=region, scale=1.0 / 255.0)
+        cv2.multiply(region, cv2.merge([cv2.LUT(sub, t) for t in tables]), dst=region,
+                     scale=1.0 / 255.0)
 
 
 def over(image: np.ndarray, layer: Layer, below: list[Layer]) -> None:

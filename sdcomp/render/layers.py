@@ -71,7 +71,8 @@ class Layer:
     alpha: np.ndarray  # (h, w) float32 coverage
     weight: np.ndarray  # (h, w) float32
     shadow_offset: tuple[float, float]  # pixels
-    shadow_strength: float  # fraction of the light the shadow takes away
+    #: fraction of the light the shadow takes away, per R, G, B channel
+    shadow_strength: tuple[float, float, float]
     shadow_blur: float  # pixels (Gaussian sigma)
     full_area: float = 0.0  # pixels: the whole projected silhouette, inside the frame or not
     #: (h, w) float32 coverage times metres above the water (what casts the shadow's
@@ -162,25 +163,29 @@ def ripple_height(wind: float) -> float:
 
 
 def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
-           column: WaterColumn, size_m: float) -> tuple[tuple[float, float], float, float]:
-    """The object's shadow in the water: (offset pixels, strength, blur sigma pixels).
+           column: WaterColumn, size_m: float
+           ) -> tuple[tuple[float, float], tuple[float, float, float], float]:
+    """The object's shadow in the water: (offset pixels, strength per R, G, B channel,
+    blur sigma pixels).
 
     What a shadow takes away is the direct sun's share of the light scattered back up by
-    the water under it (or reflected by a shallow bottom): that light comes from a depth of
-    about ``1 / (2 K_d)`` (or the bottom's), where the shadow lies displaced away from the
-    sun along the refracted sun ray and spread by scattering, so a shadow is strong and
-    sharp in turbid water and faint and diffuse in clear water. ``size_m`` is the object's
-    size across, metres."""
+    the water under it (or reflected by a shallow bottom), channel by channel: the sun is
+    warmer than the sky that still lights the shadow, and the sky's reflection on the
+    surface stays, so a shadow on sunlit water is darker and bluer than the water around
+    it. That light comes from a depth of about ``1 / (2 K_d)`` (or the bottom's), where
+    the shadow lies displaced away from the sun along the refracted sun ray and spread by
+    scattering, so a shadow is strong and sharp in turbid water and faint and diffuse in
+    clear water. ``size_m`` is the object's size across, metres."""
     water = lit.water
     s = lit.sun
-    l_w = column.deep
-    e_dir = column.sun * max(float(s[2]), 0.0)
-    e_all = e_dir + water.sky_irradiance
+    l_w = np.asarray(column.deep, np.float64)
+    e_dir = np.asarray(column.sun, np.float64) * max(float(s[2]), 0.0)
+    e_all = e_dir + np.asarray(water.sky_irradiance, np.float64)
     lum = LUMA.astype(np.float64)
-    share = float(e_dir @ lum) / max(float(e_all @ lum), 1e-9)
-    if share <= 0.01:
-        return (0.0, 0.0), 0.0, 0.0
-    from_water = float(l_w @ lum) / max(float((l_w + column.reflection) @ lum), 1e-9)
+    if float(e_dir @ lum) / max(float(e_all @ lum), 1e-9) <= 0.01:
+        return (0.0, 0.0), (0.0, 0.0, 0.0), 0.0
+    share = e_dir / np.maximum(e_all, 1e-9)
+    from_water = l_w / np.maximum(l_w + np.asarray(column.reflection, np.float64), 1e-9)
     kd = float(np.mean(water.diffuse_attenuation))
     z = 1.0 / (2.0 * max(kd, 1e-3))
     if scene.water.depth is not None:
@@ -191,9 +196,9 @@ def shadow(view: SpriteView, model: CameraModel, scene: Scene, lit: Lighting,
     spread = 0.15 * z + 0.25 * drift  # sharp near the surface: most light comes from there
     off = view.jac @ np.array([-sw[0] / sun_h * drift, -sw[1] / sun_h * drift,
                                -z / N_WATER])
-    strength = share * from_water * size_m / (size_m + spread)
+    r, g, b = (float(v) for v in share * from_water * size_m / (size_m + spread))
     blur = max(spread * model.fx / view.depth, 0.0)
-    return (float(off[0]), float(off[1])), float(strength), blur
+    return (float(off[0]), float(off[1])), (r, g, b), blur
 
 
 def shadow_step(view: SpriteView, lit: Lighting) -> tuple[float, float]:
