@@ -19,7 +19,7 @@ EXTENTS = {
     "log": (2.2, 0.3, 0.3),
     "boat": (3.5, 1.4, None),
     "foam": (1.5, 1.5, 0.025),
-    "dock": (8.0, 1.32, 1.45),  # the deck 0.45 m up on posts 1 m down
+    "dock": (8.0, 1.62, 1.45),  # the deck 0.45 m up on posts 1 m down
     "canopy": (7.2, 3.3, 4.6),  # the crown 3.6 m up, posts 1 m down
 }
 # Top-down silhouette area expected from the stated sizes, m^2.
@@ -28,7 +28,7 @@ FOOTPRINT = {
     "log": 2.2 * 0.3,
     "boat": math.pi / 4 * 3.5 * 1.4,  # an ellipse in the hull's bounding box
     "foam": math.pi / 4 * 1.5**2,
-    "dock": 8.0 * 1.2 * 0.9,  # boards with 2 cm gaps between them (17 cm boards)
+    "dock": 8.0 * 1.5 * 0.9,  # boards with 2 cm gaps between them (17 cm boards)
     "canopy": 7.2 * 3.3,
 }
 # Colour that dominates the surface area, and colours that must be present.

@@ -180,11 +180,15 @@ def test_swimmers_treading_water_stir_it_and_others_do_not():
     assert stirring("bluerov2") == 0.0
 
 
-def test_jet_skis_are_mostly_white_or_black_with_one_accent():
+def test_jet_skis_are_mostly_white_with_one_accent():
+    """Jet skis seen from above are white or light grey on 17 of 20 in the aerial-maritime
+    lake photos (a few blue); one variant in eight is black (Kawasaki, performance)."""
     decks = [sar.describe_variant("jetski", v)["colours"]["deck"] for v in range(8)]
     light = sum(min(d) > 180 for d in decks)
     dark = sum(max(d) < 90 for d in decks)
-    assert light >= 4 and dark >= 3
+    assert light >= 6 and dark >= 1
+    hulls = [sar.describe_variant("jetski", v)["colours"]["hull"] for v in range(8)]
+    assert sum(min(h) > 180 for h in hulls) >= 5
     accents = [sar.describe_variant("jetski", v)["colours"]["trim"] for v in range(8)]
     blue = sum(a[2] > 150 and a[0] < 60 for a in accents)
     red_orange = sum(a[0] > 180 and a[2] < 60 and a[1] < 130 for a in accents)

@@ -16,7 +16,7 @@ real-world sizes (metres, x forward, y port, z up):
 Two kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet skis
 (:mod:`sdcomp.scene.moorings`) rather than at random:
 
-- ``dock``: a fixed walkway 8 m long and 1.2 m wide, its deck 0.45 m above the water: 42
+- ``dock``: a fixed walkway 8 m long and 1.5 m wide, its deck 0.45 m above the water: 42
   light grey composite boards across two stringers, on 10 posts; lake docks are mostly
   aluminium frames with white or grey decking.
 - ``canopy``: a boat lift 7.2 m long and 3.3 m wide under a white fabric canopy, the
@@ -190,7 +190,7 @@ def _foam() -> ColoredMesh:
 
 # --------------------------------------------------------------------------- moorings
 
-DOCK_LENGTH, DOCK_WIDTH, DOCK_DECK = 8.0, 1.2, 0.45  # metres; deck top above the water
+DOCK_LENGTH, DOCK_WIDTH, DOCK_DECK = 8.0, 1.5, 0.45  # metres; deck top above the water
 DOCK_BOARD, DOCK_GAP = 0.17, 0.02  # boards across the walkway, the gaps between them
 CANOPY_LENGTH, CANOPY_WIDTH, CANOPY_CROWN = 7.2, 3.3, 3.6  # metres; crown above the water
 CANOPY_RISE = 0.55  # metres from the canopy's eaves to its crown

@@ -30,7 +30,7 @@ from .scene import Placement, Role, Shore, on_land
 MOORED_KINDS = ("boat", "jetski")
 #: chance that a moored object has a canopied lift on the side away from its dock
 CANOPY_CHANCE = 0.6
-GAP = (0.3, 0.9)  # metres of water between an object's side and the dock or lift beside it
+GAP = (0.1, 0.5)  # metres of water between an object's side and the dock or lift beside it
 #: half length and half width (metres) of each mooring's footprint
 HALF_SIZE = {"dock": (clutter.DOCK_LENGTH / 2, clutter.DOCK_WIDTH / 2),
              "canopy": (clutter.CANOPY_LENGTH / 2, clutter.CANOPY_WIDTH / 2)}

@@ -82,12 +82,13 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
 
 def _colours(rng: np.random.Generator, deck_rgb, accent_rgb) -> dict:
     """The paint of a jet ski of deck colour ``deck_rgb`` and accent ``accent_rgb`` (sRGB
-    lists): seen from above, personal watercraft are mostly a white, grey or black deck
-    and hull with one bright accent on the hood, the pod and the side panels
+    lists): seen from above, personal watercraft are mostly a white or light grey deck
+    and hull (the hull the deck's colour on three in five, white or dark grey otherwise)
+    with one bright accent on the hood, the pod and the side panels
     (:data:`~.palette.PWC_ACCENT`), a black or grey saddle and dark footwell mats."""
     deck = jitter(deck_rgb, rng, 0.03)
     accent = jitter(accent_rgb, rng, 0.04)
-    hull = pick(rng, (deck, deck, palette.WHITE, palette.DARK_GREY, palette.BLACK))
+    hull = pick(rng, (deck, deck, deck, palette.WHITE, palette.DARK_GREY))
     seat = jitter(pick(rng, palette.PWC_SEAT), rng, 0.04)
     return {"deck": list(deck), "hull": list(hull), "trim": list(accent), "seat": list(seat),
             "mat": list(palette.DARK_GREY)}
