@@ -21,6 +21,7 @@ EXTENTS = {
     "foam": (1.5, 1.5, 0.025),
     "dock": (8.0, 1.62, 1.45),  # the deck 0.45 m up on posts 1 m down
     "canopy": (7.2, 3.3, 4.6),  # the crown 3.6 m up, posts 1 m down
+    "port": (3.4, 1.7, 0.4),  # 0.15 m proud, 0.25 m of float under the water
 }
 # Top-down silhouette area expected from the stated sizes, m^2.
 FOOTPRINT = {
@@ -30,10 +31,12 @@ FOOTPRINT = {
     "foam": math.pi / 4 * 1.5**2,
     "dock": 8.0 * 1.5 * 0.9,  # boards with 2 cm gaps between them (17 cm boards)
     "canopy": 7.2 * 3.3,
+    "port": 3.4 * 1.7,  # its rim, and the cradle floor seen in the hole
 }
 # Colour that dominates the surface area, and colours that must be present.
 DOMINANT = {"buoy": clutter.BUOY_RED, "log": clutter.BARK, "boat": clutter.HULL,
-            "foam": clutter.FOAM, "dock": clutter.DECK, "canopy": clutter.CANOPY}
+            "foam": clutter.FOAM, "dock": clutter.DECK, "canopy": clutter.CANOPY,
+            "port": clutter.PORT}
 PRESENT = {
     "buoy": {clutter.BUOY_RED, clutter.BUOY_WHITE, clutter.STEEL},
     "log": {clutter.BARK, clutter.CUT_WOOD},
@@ -41,6 +44,7 @@ PRESENT = {
     "foam": {clutter.FOAM},
     "dock": {clutter.DECK, clutter.DOCK_FRAME},
     "canopy": {clutter.CANOPY, clutter.LIFT_FRAME},
+    "port": {clutter.PORT, clutter.ROLLER},
 }
 
 

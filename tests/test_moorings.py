@@ -12,7 +12,7 @@ import pytest
 
 from sdcomp.errors import UserError
 from sdcomp.scene.config import GeneratorConfig
-from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam
+from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam, keel_depth
 from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius
 from sdcomp.scene.sample import sample_scene
 from sdcomp.scene.scene import Role
@@ -59,10 +59,11 @@ def test_unmoored_scenes_are_those_of_before():
 def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
     """With ``moored`` 1 each boat and jet ski (unless its dock would cover another
     object) lies at rest and level beside a dock parallel to it: across it by its half
-    beam, a gap of 0.1-0.5 m and the dock's half width, within 2 m of its middle along it;
-    canopies on the other side, on about 60 % of them."""
+    beam (or its port's), a gap of 0.1-0.5 m and the dock's half width, within 2 m of its
+    middle along it; canopies on the other side, on about 60 % of them; about half the jet
+    skis on a drive-on port under them, held out of the water (keel above it)."""
     config = _config(moored=1.0, count="1-3", clutter=0)
-    objects = docks = canopies = 0
+    objects = docks = canopies = jetskis = ported = 0
     for i in range(60):
         scene = sample_scene(config, i)
         objs = [p for p in scene.placements if p.role is Role.OBJECT]
@@ -70,9 +71,18 @@ def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
         for obj in objs:
             objects += 1
             assert obj.speed == 0.0 and obj.roll == 0.0 and obj.pitch == 0.0
-            beam = half_beam(obj.asset)
             near = [(m, *_body(obj, m)) for m in moorings
                     if abs(math.remainder(m.heading - obj.heading, 360.0)) < 1e-9]
+            port = [m for m, along, across in near if m.asset.endswith("port")
+                    and math.hypot(along, across) < 1e-6]
+            if "jetski" in obj.asset:
+                jetskis += 1
+                ported += bool(port)
+                if port:  # raised onto the port's rollers
+                    assert obj.draft == pytest.approx(-(keel_depth(obj.asset) + 0.08))
+            else:
+                assert not port
+            beam = max(half_beam(obj.asset), HALF_SIZE["port"][1] if port else 0.0)
             dock = [(along, across) for m, along, across in near if m.asset.endswith("dock")
                     and beam + 0.1 + HALF_SIZE["dock"][1] - 1e-6 <= abs(across)
                     <= beam + 0.5 + HALF_SIZE["dock"][1] + 1e-6 and abs(along) <= 2.0]
@@ -81,9 +91,10 @@ def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
             canopies += any(m.asset.endswith("canopy") and abs(across) > beam
                             and side and np.sign(across) != np.sign(side[0])
                             for m, _, across in near)
-    assert objects > 80
+    assert objects > 80 and jetskis > 40
     assert docks >= 0.8 * objects
     assert 0.4 * docks <= canopies <= 0.8 * docks
+    assert 0.3 * jetskis <= ported <= 0.7 * jetskis
 
 
 def test_moorings_keep_off_the_other_objects():

@@ -13,7 +13,7 @@ real-world sizes (metres, x forward, y port, z up):
 - ``foam``: a flat irregular foam patch about 1.5 m across and 25 mm thick, with two holes;
   its top stands 10 mm above the water.
 
-Two kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet skis
+Three kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet skis
 (:mod:`sdcomp.scene.moorings`) rather than at random:
 
 - ``dock``: a fixed walkway 8 m long and 1.5 m wide, its deck 0.45 m above the water: 42
@@ -22,6 +22,9 @@ Two kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet skis
 - ``canopy``: a boat lift 7.2 m long and 3.3 m wide under a white fabric canopy, the
   canopy's crown 3.6 m above the water (a vinyl sheet on an arched frame over four corner
   posts, the lift's cradle under it): from the air a white rounded roof and its shadow.
+- ``port``: a drive-on jet ski port 3.4 m long and 1.7 m wide, moulded black polyethylene
+  floating 0.15 m proud: a rim of floats round a cradle whose two keel rollers hold the
+  hull out of the water; from the air a dark frame round the jet ski on it.
 
 Every mesh is deterministic, closed (watertight) and re-centred on its bounding box; each face
 keeps the sRGB colour of the part it comes from.
@@ -39,9 +42,9 @@ from ..errors import UserError
 from .mesh import ColoredMesh
 from .solids import RGB, box_between, ellipsoid, finish, paint
 
-KINDS = ("buoy", "log", "boat", "foam", "dock", "canopy")
+KINDS = ("buoy", "log", "boat", "foam", "dock", "canopy", "port")
 #: the kinds that are moorings, drawn beside moored objects instead of as random clutter
-MOORINGS = ("dock", "canopy")
+MOORINGS = ("dock", "canopy", "port")
 
 # sRGB colours of the parts.
 BUOY_RED = (230, 80, 30)
@@ -58,6 +61,8 @@ DECK = (196, 196, 188)
 DOCK_FRAME = (150, 152, 150)
 CANOPY = (236, 236, 230)
 LIFT_FRAME = (170, 172, 170)
+PORT = (38, 39, 42)
+ROLLER = (90, 92, 95)
 
 _SEG = 48  # circular segments for large round parts
 _SEG_S = 16  # ... for small ones
@@ -245,8 +250,29 @@ def _canopy() -> ColoredMesh:
     return finish(roof + frame, colours, 0.0, "canopy")
 
 
+PORT_LENGTH, PORT_WIDTH, PORT_FREEBOARD = 3.4, 1.7, 0.15  # metres
+PORT_DEPTH = 0.25  # metres of float under the water
+
+
+def _port() -> ColoredMesh:
+    """A rim of floats round an open cradle, two rows of keel rollers in it (z = 0 is the
+    water)."""
+    colours: dict[int, RGB] = {}
+    half_l, half_w, top = PORT_LENGTH / 2, PORT_WIDTH / 2, PORT_FREEBOARD
+    rim = box_between([-half_l, -half_w, -PORT_DEPTH], [half_l, half_w, top]) - box_between(
+        [-half_l + 0.3, -half_w + 0.3, -1.0], [half_l - 0.5, half_w - 0.3, 1.0])
+    floor = box_between([-half_l + 0.2, -half_w + 0.2, -PORT_DEPTH],
+                        [half_l - 0.4, half_w - 0.2, -0.05])
+    body = paint(rim + floor, PORT, colours)
+    rollers = [box_between([x - 0.09, s * 0.18 - 0.07, -0.05], [x + 0.09, s * 0.18 + 0.07,
+                                                                0.08])
+               for x in np.linspace(-half_l + 0.5, half_l - 0.8, 5) for s in (-1, 1)]
+    wheels = paint(m3.Manifold.batch_boolean(rollers, m3.OpType.Add), ROLLER, colours)
+    return finish(body + wheels, colours, 0.0, "port")
+
+
 _BUILDERS = {"buoy": _buoy, "log": _log, "boat": _boat, "foam": _foam, "dock": _dock,
-             "canopy": _canopy}
+             "canopy": _canopy, "port": _port}
 
 
 def build(kind: str) -> ColoredMesh:
