@@ -182,8 +182,8 @@ class GeneratorConfig:
                                "0.6, swimmers 0.4, BlueROV2 0.3; 0: all at rest)", "X", 0.0,
                                2.5)
     moored: float = setting(0.0, "float", "chance that a boat or jet ski lies at rest at a "
-                            "dock, often beside a canopied boat lift (lakes, marinas)", "P",
-                            0.0, 1.0)
+                            "dock (lakes, marinas): often a canopied boat lift beside it, a "
+                            "jet ski on a drive-on port on half", "P", 0.0, 1.0)
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")
