@@ -44,26 +44,50 @@ def test_clear_tells_a_disc_inside_beside_and_off_a_corner():
 
 def test_unmoored_scenes_are_those_of_before():
     """``moored`` 0 draws nothing more: the scene equals the one drawn with the moorings'
-    stream never used, and a moored run keeps every placement's place, heading and asset,
-    the other clutter included, only adding moorings after them."""
+    stream never used, and a moored run keeps every placement's asset and, but for the
+    jet skis moved beside another (its heading, within 3.5 m), its place and heading, the
+    other clutter included, only adding moorings after them."""
     plain, moored = _config(), _config(moored=1.0)
+    moved = 0
     for i in range(40):
         a, b = sample_scene(plain, i), sample_scene(moored, i)
         n = len(a.placements)
-        assert [(p.asset, p.x, p.y, p.heading) for p in a.placements] == [
-            (p.asset, p.x, p.y, p.heading) for p in b.placements[:n]]
+        assert [p.asset for p in a.placements] == [p.asset for p in b.placements[:n]]
+        for p, q in zip(a.placements, b.placements[:n], strict=True):
+            if (p.x, p.y, p.heading) != (q.x, q.y, q.heading):
+                moved += 1
+                assert "jetski" in q.asset and any(
+                    o is not q and _same(o, q) and math.hypot(o.x - q.x, o.y - q.y) < 3.5
+                    for o in b.placements[:n])
         assert all(p.role is Role.CLUTTER and p.asset in ASSETS for p in b.placements[n:])
         assert replace(a, placements=()) == replace(b, placements=())
+    assert moved > 0
+
+
+def _same(a, b) -> bool:
+    return abs(math.remainder(a.heading - b.heading, 360.0)) < 1e-9
+
+
+def _docked(o, has_port: bool, moorings) -> list[float]:
+    """The across offsets (metres, ``o``'s body frame) of the docks that hold ``o``."""
+    beam = max(half_beam(o.asset), HALF_SIZE["port"][1] if has_port else 0.0)
+    return [across for m, along, across in ((m, *_body(o, m)) for m in moorings
+                                            if _same(m, o))
+            if m.asset.endswith("dock")
+            and beam + 0.1 + HALF_SIZE["dock"][1] - 1e-6 <= abs(across)
+            <= beam + 0.5 + HALF_SIZE["dock"][1] + 1e-6 and abs(along) <= 2.0]
 
 
 def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
     """With ``moored`` 1 each boat and jet ski (unless its dock would cover another
-    object) lies at rest and level beside a dock parallel to it: across it by its half
-    beam (or its port's), a gap of 0.1-0.5 m and the dock's half width, within 2 m of its
-    middle along it; canopies on the other side, on about 60 % of them; about half the jet
-    skis on a drive-on port under them, held out of the water (keel above it)."""
+    object) lies at rest and level beside a dock parallel to it, or beside a jet ski that
+    does: across it by its half beam (or its port's), a gap of 0.1-0.5 m and the dock's
+    half width, within 2 m of its middle along it; canopies on the other side, on about
+    60 % of them; about half the jet skis on a drive-on port under them, held out of the
+    water (keel above it); some jet skis side by side (the image's next one moved
+    alongside a moored one)."""
     config = _config(moored=1.0, count="1-3", clutter=0)
-    objects = docks = canopies = jetskis = ported = 0
+    objects = docks = canopies = jetskis = ported = paired = 0
     for i in range(60):
         scene = sample_scene(config, i)
         objs = [p for p in scene.placements if p.role is Role.OBJECT]
@@ -71,30 +95,31 @@ def test_every_boat_and_jet_ski_is_moored_beside_a_dock():
         for obj in objs:
             objects += 1
             assert obj.speed == 0.0 and obj.roll == 0.0 and obj.pitch == 0.0
-            near = [(m, *_body(obj, m)) for m in moorings
-                    if abs(math.remainder(m.heading - obj.heading, 360.0)) < 1e-9]
+            near = [(m, *_body(obj, m)) for m in moorings if _same(m, obj)]
             port = [m for m, along, across in near if m.asset.endswith("port")
                     and math.hypot(along, across) < 1e-6]
+            mates = [o for o in objs if o is not obj and _same(o, obj)
+                     and math.hypot(*_body(obj, o)) < 3.5]
             if "jetski" in obj.asset:
                 jetskis += 1
                 ported += bool(port)
+                paired += bool(mates)
                 if port:  # raised onto the port's rollers
                     assert obj.draft == pytest.approx(-(keel_depth(obj.asset) + 0.08))
             else:
-                assert not port
-            beam = max(half_beam(obj.asset), HALF_SIZE["port"][1] if port else 0.0)
-            dock = [(along, across) for m, along, across in near if m.asset.endswith("dock")
-                    and beam + 0.1 + HALF_SIZE["dock"][1] - 1e-6 <= abs(across)
-                    <= beam + 0.5 + HALF_SIZE["dock"][1] + 1e-6 and abs(along) <= 2.0]
-            docks += len(dock) >= 1
-            side = [a for _, a in dock]
-            canopies += any(m.asset.endswith("canopy") and abs(across) > beam
-                            and side and np.sign(across) != np.sign(side[0])
+                assert not port and not mates
+
+            side = _docked(obj, bool(port), moorings) or [
+                a for o in mates for a in _docked(o, bool(port), moorings)]
+            docks += bool(side)
+            canopies += any(m.asset.endswith("canopy") and side
+                            and np.sign(across) != np.sign(side[0])
                             for m, _, across in near)
     assert objects > 80 and jetskis > 40
     assert docks >= 0.8 * objects
     assert 0.4 * docks <= canopies <= 0.8 * docks
     assert 0.3 * jetskis <= ported <= 0.7 * jetskis
+    assert paired >= 0.15 * jetskis
 
 
 def test_moorings_keep_off_the_other_objects():
@@ -109,13 +134,12 @@ def test_moorings_keep_off_the_other_objects():
                   and not p.asset.endswith("foam")]
         for m in moorings:
             kind = m.asset.removeprefix(CLUTTER_PREFIX)
-            holders = [p for p in others if p.role is Role.OBJECT and abs(math.remainder(
-                p.heading - m.heading, 360.0)) < 1e-9]
-            assert len(holders) == 1
-            # the disc of the object it holds is a rough circle about a long body: the
-            # mooring lies inside it, beside the body (the first test)
+            holders = [p for p in others if p.role is Role.OBJECT and _same(p, m)]
+            assert 1 <= len(holders) <= 2
+            # the disc of an object it holds is a rough circle about a long body: the
+            # mooring lies inside it, beside the body (the test above)
             discs = [(p.x, p.y, footprint_radius(p.asset) * 0.999) for p in others
-                     if p is not holders[0]]
+                     if not any(p is h for h in holders)]
             assert clear(m.x, m.y, m.heading, HALF_SIZE[kind], discs)
             checked += 1
     assert checked > 100

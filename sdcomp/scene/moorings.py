@@ -35,6 +35,8 @@ MOORED_KINDS = ("boat", "jetski")
 CANOPY_CHANCE = 0.6
 #: chance that a moored jet ski lies on a drive-on port, out of the water
 PORT_CHANCE = 0.5
+#: chance that a moored jet ski has the image's next jet ski moored beside it
+PAIR_CHANCE = 0.5
 PORT_CLEARANCE = 0.08  # metres from the water up to the keel of a jet ski on its port
 GAP = (0.1, 0.5)  # metres of water between an object's side and the dock or lift beside it
 #: half length and half width (metres) of each mooring's footprint
@@ -48,6 +50,11 @@ ASSETS = tuple(CLUTTER_PREFIX + name for name in clutter.MOORINGS)
 def half_beam(asset: str) -> float:
     """Metres: the largest |y| of the visible hull of the object drawn from ``asset``."""
     return float(np.abs(visible_hull(asset)[:, 1]).max())
+
+
+def half_length(asset: str) -> float:
+    """Metres: the largest |x| of the visible hull of the object drawn from ``asset``."""
+    return float(np.abs(visible_hull(asset)[:, 0]).max())
 
 
 @functools.cache
@@ -106,43 +113,71 @@ def overlap(r1: Rect, r2: Rect) -> bool:
     return True
 
 
+def _beam(asset: str, on_port: bool) -> float:
+    """Metres from the centre line of a moored ``asset`` to its side, or its port's."""
+    return max(half_beam(asset), HALF_SIZE["port"][1] if on_port else 0.0)
+
+
+def _neighbour(placements: tuple[Placement, ...], i: int, done: set[int]) -> int | None:
+    """The index of the first jet ski after ``i`` among ``placements`` not yet moored."""
+    return next((k for k, q in enumerate(placements) if k > i and k not in done
+                 and q.role is Role.OBJECT and object_kind(q.asset) == "jetski"), None)
+
+
 def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, ...],
          shore: Shore | None = None) -> tuple[Placement, ...]:
     """``placements`` with each boat and jet ski moored with chance ``moored``: at rest,
     level, with a dock beside it, perhaps a canopied lift on its other side and, for a jet
-    ski, a drive-on port under it that holds it out of the water (clutter placements
-    appended after all the others). A mooring that would overlap another object's disc
-    (:func:`~.objects.footprint_radius`), another mooring or land is left out.
+    ski, a drive-on port under it that holds it out of the water, and on half of them the
+    image's next jet ski moved alongside, on the side away from the dock (clutter
+    placements appended after all the others). A mooring or neighbour that would overlap
+    another object's disc (:func:`~.objects.footprint_radius`), another mooring or land is
+    left out.
 
-    Draws from ``rng`` (a stream of its own) six numbers per boat or jet ski, whatever is
-    moored, so one object's draws never shift another's."""
+    Draws from ``rng`` (a stream of its own) seven numbers per boat or jet ski, whatever
+    is moored, so one object's draws never shift another's."""
     if moored <= 0:
         return placements
     out = list(placements)
-    discs = [(p.x, p.y, footprint_radius(p.asset)) for p in placements
-             if p.asset.removeprefix(CLUTTER_PREFIX) != "foam"]
+    discs = {i: (p.x, p.y, footprint_radius(p.asset)) for i, p in enumerate(placements)
+             if p.asset.removeprefix(CLUTTER_PREFIX) != "foam"}
     added: list[Placement] = []
     rects: list[Rect] = []
+    done: set[int] = set()
     for i, p in enumerate(placements):
         if p.role is not Role.OBJECT or object_kind(p.asset) not in MOORED_KINDS:
             continue
-        chance, side, shift, gap, canopy, port = rng.random(6)
-        if chance >= moored:
+        chance, side, shift, gap, canopy, port, pair = rng.random(7)
+        if chance >= moored or i in done:
             continue
-        others = [d for j, d in enumerate(discs) if j != i]
+        done.add(i)
         sign = 1.0 if side < 0.5 else -1.0
         on_port = object_kind(p.asset) == "jetski" and port < PORT_CHANCE
-        beam = max(half_beam(p.asset), HALF_SIZE["port"][1] if on_port else 0.0)
+        beam = _beam(p.asset, on_port)
         wide = GAP[0] + (GAP[1] - GAP[0]) * gap
-        draft = p.draft
-        for kind, across, along in (
-                ("port", 0.0, 0.0),
-                ("dock", sign * (beam + wide + HALF_SIZE["dock"][1]), (shift - 0.5) * 4.0),
-                ("canopy", -sign * (beam + wide + HALF_SIZE["canopy"][1]), 0.0)):
-            if (kind == "port" and not on_port) or (kind == "canopy"
-                                                    and canopy >= CANOPY_CHANCE):
-                continue
-            x, y = _world(p, along, across)
+        group = [(i, p)]
+        far = -sign * beam  # the group's side away from the dock, across the first
+        j = _neighbour(placements, i, done) if (object_kind(p.asset) == "jetski"
+                                                and pair < PAIR_CHANCE) else None
+        if j is not None:
+            q, side_j = placements[j], _beam(placements[j].asset, on_port)
+            x, y = _world(p, 0.0, far - sign * (wide + side_j))
+            rest = [d for k, d in discs.items() if k not in (i, j)]
+            rect = (x, y, p.heading, (half_length(q.asset), side_j))
+            if (clear(x, y, p.heading, rect[3], rest) and not on_land(shore, x, y)
+                    and not any(overlap(rect, r) for r in rects)):
+                group.append((j, replace(q, x=x, y=y, heading=p.heading)))
+                discs[j] = (x, y, discs[j][2])
+                done.add(j)
+                far -= sign * (wide + 2 * side_j)
+        others = [d for k, d in discs.items() if k not in {g for g, _ in group}]
+        spots = [("port", q, 0.0, 0.0) for _, q in group if on_port]
+        spots += [("dock", p, sign * (beam + wide + HALF_SIZE["dock"][1]), (shift - 0.5) * 4.0)]
+        if canopy < CANOPY_CHANCE:
+            spots += [("canopy", p, far - sign * (wide + HALF_SIZE["canopy"][1]), 0.0)]
+        raised: set[int] = set()  # the ids of the group's placements on a port
+        for kind, at, across, along in spots:
+            x, y = _world(at, along, across)
             rect = (x, y, p.heading, HALF_SIZE[kind])
             if (not clear(x, y, p.heading, HALF_SIZE[kind], others) or on_land(shore, x, y)
                     or any(overlap(rect, r) for r in rects)):
@@ -151,6 +186,8 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
                                    0.0, 0.0, 0.0))
             rects.append(rect)
             if kind == "port":  # on its rollers, out of the water
-                draft = -(keel_depth(p.asset) + PORT_CLEARANCE)
-        out[i] = replace(p, roll=0.0, pitch=0.0, speed=0.0, draft=draft)
+                raised.add(id(at))
+        for k, q in group:
+            draft = -(keel_depth(q.asset) + PORT_CLEARANCE) if id(q) in raised else q.draft
+            out[k] = replace(q, roll=0.0, pitch=0.0, speed=0.0, draft=draft)
     return tuple(out + added)
