@@ -12,7 +12,7 @@ import pytest
 
 from sdcomp.errors import UserError
 from sdcomp.scene.config import GeneratorConfig
-from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam, keel_depth, riderless
+from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam, keel_depth
 from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius
 from sdcomp.scene.sample import sample_scene
 from sdcomp.scene.scene import Role
@@ -44,8 +44,7 @@ def test_clear_tells_a_disc_inside_beside_and_off_a_corner():
 
 def test_unmoored_scenes_are_those_of_before():
     """``moored`` 0 draws nothing more: the scene equals the one drawn with the moorings'
-    stream never used, and a moored run keeps every placement's asset (a jet ski's rider
-    left ashore) and, but for the
+    stream never used, and a moored run keeps every placement's asset and, but for the
     jet skis moved beside another (its heading, within 3.5 m), its place and heading, the
     other clutter included, only adding moorings after them."""
     plain, moored = _config(), _config(moored=1.0)
@@ -53,9 +52,7 @@ def test_unmoored_scenes_are_those_of_before():
     for i in range(40):
         a, b = sample_scene(plain, i), sample_scene(moored, i)
         n = len(a.placements)
-        assert [q.asset for q in b.placements[:n]] == [
-            q.asset if q.asset == p.asset else riderless(p.asset)  # a moored jet ski
-            for p, q in zip(a.placements, b.placements[:n], strict=True)]
+        assert [p.asset for p in a.placements] == [p.asset for p in b.placements[:n]]
         for p, q in zip(a.placements, b.placements[:n], strict=True):
             if (p.x, p.y, p.heading) != (q.x, q.y, q.heading):
                 moved += 1
@@ -216,24 +213,3 @@ def test_shadows_on_sunlit_water_are_darker_and_bluer(sprites_dir):
     assert len(ratios) >= 2
     for r, g, b in ratios:
         assert r < g < b and b - r > 0.05, (r, g, b)
-
-
-def test_moored_jet_skis_have_no_rider_and_light_decks():
-    """Nobody sits on a jet ski at its dock: a moored one is its class's riderless variant,
-    and those are white or light grey (as the lake photos' parked jet skis are)."""
-    from sdcomp.assets import sar
-    from sdcomp.scene.moorings import riderless
-
-    for v in range(8):
-        name = riderless(sar.mesh_name("jetski", v))
-        kind, w = sar.parse_name(name)
-        params = sar.describe_variant(kind, w)
-        assert params["rider"] is None and w in (v, v + 1)
-        assert params["sub_type"] == sar.describe_variant("jetski", v)["sub_type"]
-        assert min(params["colours"]["deck"]) > 180
-    assert riderless("boat-02") == "boat-02"
-    scenes = [sample_scene(_config(moored=1.0, count="2-3", clutter=0), i) for i in range(20)]
-    jets = [p for s in scenes for p in s.placements if p.role is Role.OBJECT
-            and "jetski" in p.asset]
-    assert len(jets) > 10
-    assert all(int(p.asset[-2:]) % 2 == 1 for p in jets)

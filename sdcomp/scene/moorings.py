@@ -9,9 +9,9 @@ kind appears in open water, so moorings are not random clutter: :func:`moor` giv
 boat or jet ski, with the config's ``moored`` chance, a dock alongside (either side, the
 object anywhere along it), with :data:`CANOPY_CHANCE`, a canopied lift on its other
 side, and a jet ski with :data:`PORT_CHANCE` on a drive-on port (a dark float frame that
-holds it out of the water); a moored jet ski has no rider (:func:`riderless`). Moored
-objects lie at rest (no wake, no wave tilt). The moorings are clutter: never annotated,
-drawn through the same sprite, light, shadow and camera stages as any object.
+holds it out of the water). Moored objects lie at rest (no wake, no wave tilt). The
+moorings are clutter: never annotated, drawn through the same sprite, light, shadow and
+camera stages as any object.
 
 Frames: metres on the sea (x, y), headings in degrees as :class:`~.scene.Placement`'s; a
 mooring's rectangle is its mesh's footprint (:mod:`sdcomp.assets.clutter`).
@@ -65,16 +65,6 @@ def keel_depth(asset: str) -> float:
         return 0.0
     mesh = sar.build(*parsed)
     return float(mesh.waterline - mesh.vertices[:, 2].min())
-
-
-def riderless(asset: str) -> str:
-    """The asset of a jet ski variant without its rider: nobody sits on a jet ski at its
-    dock (variant ``2k`` has a rider, ``2k + 1`` of the same class none); other assets
-    unchanged."""
-    parsed = sar.parse_name(asset)
-    if parsed is None or parsed[0] != "jetski" or sar.describe_variant(*parsed)["rider"] is None:
-        return asset
-    return sar.mesh_name("jetski", parsed[1] + 1)
 
 
 def _world(p: Placement, along: float, across: float) -> tuple[float, float]:
@@ -198,7 +188,6 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
             if kind == "port":  # on its rollers, out of the water
                 raised.add(id(at))
         for k, q in group:
-            asset = riderless(q.asset)
-            draft = -(keel_depth(asset) + PORT_CLEARANCE) if id(q) in raised else q.draft
-            out[k] = replace(q, asset=asset, roll=0.0, pitch=0.0, speed=0.0, draft=draft)
+            draft = -(keel_depth(q.asset) + PORT_CLEARANCE) if id(q) in raised else q.draft
+            out[k] = replace(q, roll=0.0, pitch=0.0, speed=0.0, draft=draft)
     return tuple(out + added)

@@ -114,10 +114,9 @@ PWC_TRIM: tuple[RGB, ...] = ((30, 30, 34), (90, 90, 95), (235, 235, 232), (245, 
 #: a jet ski's deck and hull seen from above, variant ``v``'s the ``v``-th (a cycle, so
 #: the eight hold the mix exactly): white on five (Sea-Doo, Yamaha), light grey on two,
 #: black on one (Kawasaki, performance models): 17 of 20 jet skis in the aerial-maritime
-#: lake photos are white or light grey from above (three in eight were dark before); the
-#: black one has a rider (odd variants, riderless, are the ones moored at docks)
+#: lake photos are white or light grey from above (three in eight were dark before)
 PWC_DECK: tuple[RGB, ...] = ((236, 236, 232), (205, 207, 208), (236, 236, 232), (236, 236, 232),
-                             (32, 32, 35), (236, 236, 232), (236, 236, 232), (205, 207, 208))
+                             (236, 236, 232), (32, 32, 35), (236, 236, 232), (205, 207, 208))
 #: its one bright accent (hood, pod, side panels): variant ``v`` takes entry ``v`` (mod 8),
 #: so that the eight variants show the makers' colours as often as the market does, blue
 #: the most (two), then teal, lime, yellow, red, black and grey (a draw of eight from
