@@ -9,9 +9,10 @@ kind appears in open water, so moorings are not random clutter: :func:`moor` giv
 boat or jet ski, with the config's ``moored`` chance, a dock alongside (either side, the
 object anywhere along it), with :data:`CANOPY_CHANCE`, a canopied lift on its other
 side, and a jet ski with :data:`PORT_CHANCE` on a drive-on port (a dark float frame that
-holds it out of the water). Moored objects lie at rest (no wake, no wave tilt). The
-moorings are clutter: never annotated, drawn through the same sprite, light, shadow and
-camera stages as any object.
+holds it out of the water) and with :data:`PAIR_CHANCE` the image's next jet ski moved
+alongside it. Moored objects lie at rest (no wake, no wave tilt). The moorings are
+clutter: never annotated, drawn through the same sprite, light, shadow and camera stages
+as any object.
 
 Frames: metres on the sea (x, y), headings in degrees as :class:`~.scene.Placement`'s; a
 mooring's rectangle is its mesh's footprint (:mod:`sdcomp.assets.clutter`).
