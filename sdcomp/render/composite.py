@@ -56,12 +56,11 @@ def cast_shadow(image: np.ndarray, layer: Layer) -> None:
     """Darken the background under ``layer``'s shadow (in place; its coverage
     :func:`extruded` by the heights above the water): the shadow takes
     ``shadow_strength`` of the linear light (per channel), so sRGB levels keep
-    ``(1 - s a)**(1 / 2.2)``
-    (``a`` the shadow's blurred coverage, quantised to 256 steps: one table look-up and one
-    multiply per pixel). Wide blurs are made on a copy reduced by an integer factor (sigma
-    under twice :data:`SHADOW_BLUR_WORK` pixels there) and magnified back band by band of
-    :data:`BAND_PIXELS` over the frame's part only (no full-size copy of a shadow wider
-    than the frame)."""
+    ``(1 - s a)**(1 / 2.2)`` (``a`` the shadow's blurred coverage, quantised to 256 steps:
+    a table look-up per channel and one multiply per pixel). Wide blurs are made on a copy
+    reduced by an integer factor (sigma under twice :data:`SHADOW_BLUR_WORK` pixels there)
+    and magnified back band by band of :data:`BAND_PIXELS` over the frame's part only (no
+    full-size copy of a shadow wider than the frame)."""
     strength = np.asarray(layer.shadow_strength, np.float64).reshape(-1)
     if float(strength.max()) <= 0.01:
         return

@@ -71,8 +71,9 @@ class Layer:
     alpha: np.ndarray  # (h, w) float32 coverage
     weight: np.ndarray  # (h, w) float32
     shadow_offset: tuple[float, float]  # pixels
-    #: fraction of the light the shadow takes away, per R, G, B channel
-    shadow_strength: tuple[float, float, float]
+    #: fraction of the light the shadow takes away, per R, G, B channel (one float: the
+    #: same in all three)
+    shadow_strength: tuple[float, float, float] | float
     shadow_blur: float  # pixels (Gaussian sigma)
     full_area: float = 0.0  # pixels: the whole projected silhouette, inside the frame or not
     #: (h, w) float32 coverage times metres above the water (what casts the shadow's
