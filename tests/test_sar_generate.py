@@ -115,10 +115,13 @@ def test_atlas_build_of_a_kind_writes_every_variant_and_the_kind_sheet(tmp_path,
     assert len(index["poses"]) == len(PoseGrid(80.0, 45.0, 40.0).poses())
 
 
-def test_readme_command_lines_of_the_section_parse():
+def test_readme_command_lines_of_the_section_parse(tmp_path, monkeypatch):
     """Every ``sdcomp generate`` line of docs/sar.md makes a
-    valid config (flags, preset, weights, clutter kinds), without running it."""
+    valid config (flags, preset, weights, clutter kinds), without running it; a line that
+    reads the config a fit line wrote (``--config fitted.toml``) reads an empty one."""
     section = (Path(__file__).resolve().parents[1] / "docs" / "sar.md").read_text()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "fitted.toml").write_text("# what sdcomp fit wrote: here nothing\n")
     section = section.replace("\\\n", " ")  # a command continued on the next line
     lines = [ln.split("#")[0] for ln in section.splitlines()
              if ln.startswith("sdcomp generate ")]
