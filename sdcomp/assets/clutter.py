@@ -23,8 +23,8 @@ Three kinds of mooring (:data:`MOORINGS`), drawn beside moored boats and jet ski
   canopy's crown 3.6 m above the water (a vinyl sheet on an arched frame over four corner
   posts, the lift's cradle under it): from the air a white rounded roof and its shadow.
 - ``port``: a drive-on jet ski port 3.4 m long and 1.7 m wide, moulded black polyethylene
-  floating 0.15 m proud: a rim of floats round a cradle whose two keel rollers hold the
-  hull out of the water; from the air a dark frame round the jet ski on it.
+  floating 0.15 m proud: a rim of floats round a cradle whose two rows of keel rollers
+  hold the hull out of the water; from the air a dark frame round the jet ski on it.
 
 Every mesh is deterministic, closed (watertight) and re-centred on its bounding box; each face
 keeps the sRGB colour of the part it comes from.
