@@ -213,3 +213,16 @@ def test_shadows_on_sunlit_water_are_darker_and_bluer(sprites_dir):
     assert len(ratios) >= 2
     for r, g, b in ratios:
         assert r < g < b and b - r > 0.05, (r, g, b)
+
+
+def test_mooring_atlases_only_for_runs_that_moor():
+    """The docks', canopies' and ports' atlases are built for runs that can moor something
+    (boats or jet skis among the objects, ``moored`` above 0), never for others."""
+    from sdcomp.pipeline import _sprite_jobs
+
+    def moorings(config):
+        return {key for key, _, _ in _sprite_jobs(config)} & set(ASSETS)
+
+    assert moorings(_config(moored=0.5)) == set(ASSETS)
+    assert moorings(_config(moored=0.0)) == set()
+    assert moorings(GeneratorConfig(moored=1.0)) == set()  # the BlueROV2: nothing moors
