@@ -12,8 +12,8 @@ import pytest
 
 from sdcomp.errors import UserError
 from sdcomp.scene.config import GeneratorConfig
-from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam, keel_depth
-from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius
+from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam
+from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius, keel_depth
 from sdcomp.scene.sample import sample_scene
 from sdcomp.scene.scene import Role
 

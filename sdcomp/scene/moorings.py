@@ -20,14 +20,13 @@ mooring's rectangle is its mesh's footprint (:mod:`sdcomp.assets.clutter`).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import replace
 
 import numpy as np
 
-from ..assets import clutter, sar
-from .objects import CLUTTER_PREFIX, footprint_radius, object_kind, visible_hull
+from ..assets import clutter
+from .objects import CLUTTER_PREFIX, footprint_radius, keel_depth, object_kind, visible_hull
 from .scene import Placement, Role, Shore, on_land
 
 #: the kinds of objects of interest that are moored
@@ -56,16 +55,6 @@ def half_beam(asset: str) -> float:
 def half_length(asset: str) -> float:
     """Metres: the largest |x| of the visible hull of the object drawn from ``asset``."""
     return float(np.abs(visible_hull(asset)[:, 0]).max())
-
-
-@functools.cache
-def keel_depth(asset: str) -> float:
-    """Metres from the waterline down to the lowest point of the variant ``asset``."""
-    parsed = sar.parse_name(asset.removeprefix(CLUTTER_PREFIX))
-    if parsed is None:
-        return 0.0
-    mesh = sar.build(*parsed)
-    return float(mesh.waterline - mesh.vertices[:, 2].min())
 
 
 def _world(p: Placement, along: float, across: float) -> tuple[float, float]:

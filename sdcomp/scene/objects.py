@@ -239,6 +239,12 @@ def footprint_radius(asset: str) -> float:
     return _sizes(asset.removeprefix(CLUTTER_PREFIX))[0]
 
 
+def keel_depth(asset: str) -> float:
+    """Metres from the waterline down to the lowest point of the object drawn from
+    ``asset`` (its whole mesh: how high it must be lifted to stand clear of the water)."""
+    return _sizes(asset.removeprefix(CLUTTER_PREFIX))[2]
+
+
 def measure_all(assets: Iterable[str]) -> None:
     """Work out the footprint, visible hull and top of every one of ``assets`` now (each
     builds its mesh once: 25-50 ms): call it before forking workers, which then inherit
@@ -249,9 +255,9 @@ def measure_all(assets: Iterable[str]) -> None:
 
 
 @functools.cache
-def _sizes(name: str) -> tuple[float, np.ndarray]:
-    """(radius metres, hull (K, 3)) of mesh ``name`` (:func:`footprint_radius`,
-    :func:`visible_hull`)."""
+def _sizes(name: str) -> tuple[float, np.ndarray, float]:
+    """(radius metres, hull (K, 3), keel depth metres) of mesh ``name``
+    (:func:`footprint_radius`, :func:`visible_hull`, :func:`keel_depth`)."""
     parsed = sar.parse_name(name)
     if parsed is None:  # a clutter-only mesh (a log, foam), a built-in or a file
         mesh = clutter.build(name) if name in clutter.KINDS else library.MeshSpec(name).load()
@@ -269,7 +275,8 @@ def _sizes(name: str) -> tuple[float, np.ndarray]:
     # points themselves)
     hull = np.asarray(m3.Manifold.hull_points(pts).to_mesh().vert_properties,
                       np.float64)[:, :3]
-    return float(half.mean()), hull if len(hull) else pts
+    keel = float(mesh.waterline - v[:, 2].min())
+    return float(half.mean()), hull if len(hull) else pts, keel
 
 
 def _crossings(v: np.ndarray, faces: np.ndarray, z: float) -> np.ndarray:
