@@ -81,4 +81,4 @@ def test_module_entry_point():
     assert r.returncode == 2 and r.stdout == ""
     assert r.stderr.strip().splitlines() == [
         "error: --preset 'nope' is unknown; use one of paper, paper-table1, paper-table2, "
-        "paper-table3, paper-table4, paper-table5, smoke"]
+        "paper-table3, paper-table4, paper-table5, paper-table6, smoke"]

@@ -162,3 +162,16 @@ def test_the_package_and_grid_import_without_torch():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_table6_trains_on_real_frames_and_joins_a_grid_given_them():
+    from sdcomp.bench.cli import build_parser, grid_from_args
+    spec = preset("paper-table6")
+    assert [label for _, label, _ in spec.rows()] == list(PAPER[6]) == ["500", "1000", "1500"]
+    assert [c.id for c in spec.cells()] == ["real-n500", "real-n1000", "real-n1500"]
+    assert spec.real and TABLES[6].real and not PRESETS["paper"].real
+    assert [spec.images(c.n) for c in spec.cells()] == [500, 1000, 1500]
+    argv = ["grid", "--preset", "smoke", "--out", "o"]
+    assert grid_from_args(build_parser().parse_args(argv)).tables == (1, 2, 3, 4, 5)
+    given = argv + ["--real-train", "x.json", "--real-train-images", "frames"]
+    assert grid_from_args(build_parser().parse_args(given)).tables == (1, 2, 3, 4, 5, 6)

@@ -73,3 +73,22 @@ def test_report_of_a_folder_without_results(tmp_path):
     assert rows == {}
     text = markdown(meta, rows)
     assert text.count("(not run)") == 5
+
+
+def test_table6_rows_are_ours_when_the_grid_ran_it(tmp_path):
+    grid = PRESETS["paper-table6"].to_dict()
+    write_json(tmp_path / "grid.json", {"format": "sdcomp-bench-grid", "grid": grid,
+                                        "test_set": "real (t.json, 9 images)", "device": "cpu"})
+    write_json(tmp_path / "cells" / "real-n500.json",
+               {**_cell("real-n500", [[6, "500"]], 0.5), "val": None})
+    meta, rows = load_results(tmp_path)
+    text = markdown(meta, rows)
+    assert "## Table 6: real frames only" in text and "the paper's only" not in text
+    row = [c.strip() for c in next(ln for ln in text.splitlines()
+                                   if ln.startswith("| 500 |")).split("|")[1:-1]]
+    # row, images, 7 metrics, val AP50 ("-": real frames have no synthetic val), gap, paper
+    assert row[:4] == ["500", "10", "25.00", "50.00"] and row[9] == "-"
+    assert row[11:13] == ["77.09", "98.97"]
+    assert "| 1000 | (not run) |" in text
+    write_report(tmp_path)
+    assert cv2.imread(str(tmp_path / "plots" / "ap_vs_size.png")) is not None

@@ -36,7 +36,7 @@ from ..pipeline import DEFAULT_SPRITES
 from .detector import BACKBONES
 from .fewshot_cli import cmd_fewshot as fewshot_command
 from .fewshot_cli import fewshot_parser, native_training_flags
-from .grid import PRESETS, GridSpec, preset
+from .grid import PRESETS, GridSpec, RealCell, preset
 from .train import OPTIMIZERS
 
 TRAIN_FLAGS = {  # flag dest: (type, metavar, help)
@@ -75,6 +75,11 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--test-coco", metavar="FILE", help="COCO file of your real labelled "
                    "frames (category bluerov2); default: the synthetic field set")
     p.add_argument("--test-images", metavar="DIR", help="folder of the --test-coco images")
+    p.add_argument("--real-train", metavar="FILE", help="COCO file of your real labelled "
+                   "training frames (category bluerov2): adds the paper's Table 6, the "
+                   "detector trained on 500, 1000 and 1500 of them (x --size-scale) alone")
+    p.add_argument("--real-train-images", metavar="DIR",
+                   help="folder of the --real-train images")
     p.add_argument("--field-n", type=int, metavar="N", help="synthetic field set size")
     p.add_argument("--field-seed", type=int, metavar="S", help="synthetic field set seed")
     p.add_argument("--image-size", type=int, metavar="PX", help="square image size")
@@ -170,7 +175,20 @@ def grid_from_args(args) -> GridSpec:
              if v is not None}
     if field:
         grid["field"] = replace(spec.field, **field)
+    if getattr(args, "real_train", None) is not None and 6 not in spec.tables:
+        grid["tables"] = (*spec.tables, 6)
     return spec.with_overrides(train, **grid)
+
+
+def _real_train(args):
+    """Table 6's real training frames (``--real-train``), or None."""
+    from .datasets import real_train
+    if (args.real_train is None) != (args.real_train_images is None):
+        raise UserError("--real-train and --real-train-images go together: the COCO file "
+                        "and the folder of its images")
+    if args.real_train is None:
+        return None
+    return real_train(args.real_train, args.real_train_images)
 
 
 def _test_set(args, grid: GridSpec, cache):
@@ -216,16 +234,20 @@ def _find_cell(grid: GridSpec, cell_id: str):
 
 def cmd_grid(args) -> int:
     from .report import write_report
-    from .runner import run_grid
+    from .runner import check_real, run_grid
     grid = grid_from_args(args)
     if args.list:
         for table, label, cell in grid.rows():
-            print(f"table {table.number}  {label:8s} {cell.id}  "
-                  f"({sum(p.n for p in grid.parts(cell))} images)")
+            n = (f"{grid.images(cell.n)} real" if isinstance(cell, RealCell)
+                 else str(sum(p.n for p in grid.parts(cell))))
+            print(f"table {table.number}  {label:8s} {cell.id}  ({n} images)")
         return 0
     if not args.out:
         raise UserError("grid needs --out DIR, the results folder")
     out = Path(args.out)
+    real = _real_train(args)
+    if not args.datasets_only:
+        check_real(grid, None, real)
     ctx = _context(args, out, train=not args.datasets_only)
     test = _test_set(args, grid, ctx.cache)
     start = time.perf_counter()
@@ -238,7 +260,7 @@ def cmd_grid(args) -> int:
         return 0
     print(f"grid {grid.name}: {len(grid.cells())} cells on {ctx.device}, test set: "
           f"{test.label}")
-    run_grid(grid, test, ctx, overwrite=args.overwrite)
+    run_grid(grid, test, ctx, overwrite=args.overwrite, real=real)
     written = write_report(out)
     print(f"done in {time.perf_counter() - start:.1f} s: {written['report']}, plots in "
           f"{out / 'plots'}")
@@ -246,15 +268,18 @@ def cmd_grid(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from .runner import prepare_results, run_cell
+    from .runner import check_real, prepare_results, run_cell
     grid = grid_from_args(args)
     cell = _find_cell(grid, args.cell)
     out = Path(args.out)
+    real = _real_train(args)
+    check_real(grid, None, real)
     ctx = _context(args, out)
     test = _test_set(args, grid, ctx.cache)
     rows = [(t.number, label) for t, label, c in grid.rows() if c == cell]
-    prepare_results(grid, test, ctx)
-    data = run_cell(cell, grid, test, ctx, rows)
+    check_real(grid, test, real)
+    prepare_results(grid, test, ctx, real=real)
+    data = run_cell(cell, grid, test, ctx, rows, real=real)
     _print_metrics(data["cell"], data["test"], data["val"])
     return 0
 

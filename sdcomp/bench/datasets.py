@@ -11,6 +11,8 @@ resumes, a changed config gets a new folder.
 Test sets (:class:`EvalSet`, every output names its ``label``):
 
 - the user's real labelled frames: ``--test-coco FILE --test-images DIR`` (:func:`real_test`),
+  and Table 6's real training frames, ``--real-train FILE --real-train-images DIR``
+  (:func:`real_train`, kept apart from the test set's by :func:`check_disjoint`),
 - otherwise a held-out synthetic "field" set (:class:`FieldSpec`): a separate seed, mixed
   altitudes, water colours and gimbal pitches (:func:`field_test`),
 - the synthetic val split of a cell (:func:`val_set`), the paper's validation AP.
@@ -24,11 +26,14 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from .. import __version__
 from ..errors import UserError
 from ..io.coco import IGNORED_CATEGORY
 from ..run.local import RunOptions, run
 from ..scene.config import GeneratorConfig, preset
+from .train import training_items
 
 CATEGORY = "bluerov2"
 IGNORED_ID = IGNORED_CATEGORY["id"]  # SeaDronesSee's "ignored": an ignore region of any class
@@ -223,21 +228,78 @@ def field_test(spec: FieldSpec, size: int, options: CacheOptions) -> EvalSet:
 def real_test(coco_file: str | Path, images_dir: str | Path) -> EvalSet:
     """The user's labelled frames: a COCO file with a ``bluerov2`` category (any case) and
     the folder its ``file_name`` entries are relative to. Checks every image file exists."""
+    data, category = _labelled_frames(coco_file, images_dir, "--test-coco", "--test-images")
+    label = f"real ({os.path.basename(coco_file)}, {len(data['images'])} images)"
+    return EvalSet(label, "real", data, Path(images_dir), category, [str(coco_file)])
+
+
+@dataclass(frozen=True)
+class RealTrain:
+    """The user's real labelled training frames of Table 6 (``--real-train``): ``items``
+    (absolute image path, boxes (K, 4) float32 x0, y0, x1, y1 px) in the file's order,
+    ``key`` a hash of their names and boxes (a cell's training key), ``label`` names them."""
+
+    label: str
+    items: tuple[tuple[str, np.ndarray], ...]
+    key: str
+    files: tuple[str, ...] = ()
+
+    def pick(self, n: int, seed: int) -> list[tuple[str, np.ndarray]]:
+        """The first ``n`` frames of one order seeded by ``seed`` (a larger ``n`` keeps a
+        smaller one's frames, as the paper's 500, 1000 and 1500 grow); UserError when
+        there are fewer than ``n``."""
+        if n > len(self.items):
+            raise UserError(f"--real-train {self.files[0] if self.files else self.label}: "
+                            f"Table 6 asks {n} frames, it has {len(self.items)}; lower "
+                            f"--size-scale (the paper's 500/1000/1500 are multiplied by it)")
+        order = np.random.default_rng([seed, 0x7AB6]).permutation(len(self.items))
+        return [self.items[i] for i in order[:n]]
+
+
+def real_train(coco_file: str | Path, images_dir: str | Path) -> RealTrain:
+    """The user's labelled training frames (``--real-train FILE --real-train-images DIR``),
+    checked as :func:`real_test` checks a test set's; frames without boxes train as water."""
+    data, category = _labelled_frames(coco_file, images_dir, "--real-train",
+                                      "--real-train-images")
+    images = [{**im, "path": str((Path(images_dir) / str(im["file_name"])).resolve())}
+              for im in data["images"]]
+    items = training_items({**data, "images": images}, category)
+    digest = hashlib.sha256()
+    for im, (_, boxes) in zip(images, items, strict=True):
+        digest.update(str(im["file_name"]).encode() + b"\0" + boxes.tobytes())
+    return RealTrain(f"real ({os.path.basename(coco_file)}, {len(items)} images)",
+                     tuple(items), digest.hexdigest()[:12], (str(coco_file),))
+
+
+def check_disjoint(real: RealTrain, test: EvalSet) -> None:
+    """UserError when the real training frames include frames of the test set."""
+    if test.kind != "real":
+        return
+    tested = {test.image_path(im).resolve() for im in test.coco["images"]}
+    shared = sorted(p for p, _ in real.items if Path(p) in tested)
+    if shared:
+        raise UserError(f"--real-train holds {len(shared)} of the --test-coco frames (e.g. "
+                        f"{Path(shared[0]).name}); train and test on different frames")
+
+
+def _labelled_frames(coco_file: str | Path, images_dir: str | Path, coco_flag: str,
+                     images_flag: str) -> tuple[dict, int]:
+    """(COCO dict, id of its ``bluerov2`` category) of the user's labelled frames, every
+    image file checked; UserErrors name the flags."""
     coco_file, images_dir = Path(coco_file), Path(images_dir)
-    data = read_coco(coco_file, "--test-coco")
+    data = read_coco(coco_file, coco_flag)
     if not images_dir.is_dir():
-        raise UserError(f"--test-images {images_dir}: no such folder")
+        raise UserError(f"{images_flag} {images_dir}: no such folder")
     names = {str(c.get("name", "")).lower(): c.get("id") for c in data["categories"]}
     if CATEGORY not in names:
         found = ", ".join(sorted(names)) or "none"
-        raise UserError(f"--test-coco {coco_file}: no category named {CATEGORY!r} (found: "
+        raise UserError(f"{coco_flag} {coco_file}: no category named {CATEGORY!r} (found: "
                         f"{found}); rename the BlueROV2 category to {CATEGORY}")
     if not data["images"]:
-        raise UserError(f"--test-coco {coco_file}: lists no images")
+        raise UserError(f"{coco_flag} {coco_file}: lists no images")
     for im in data["images"]:
         p = images_dir / str(im.get("file_name", ""))
         if not p.is_file():
-            raise UserError(f"--test-images {images_dir}: {im.get('file_name')!r} of "
-                            f"--test-coco is missing")
-    label = f"real ({os.path.basename(coco_file)}, {len(data['images'])} images)"
-    return EvalSet(label, "real", data, images_dir, int(names[CATEGORY]), [str(coco_file)])
+            raise UserError(f"{images_flag} {images_dir}: {im.get('file_name')!r} of "
+                            f"{coco_flag} is missing")
+    return data, int(names[CATEGORY])

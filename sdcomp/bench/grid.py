@@ -7,7 +7,11 @@ tables (10 m brown 626 is in Tables 1, 2 and 3) are trained once. A :class:`Grid
 preset: its tables, the scale of the image counts, the image size, the training config and
 the synthetic field test set.
 
-Presets (:data:`PRESETS`): ``paper`` (Tables 1-5), ``paper-table1`` ... ``paper-table5`` at
+A :class:`RealCell` is one of Table 6's: the paper's detector trained on the user's real
+labelled frames alone (500, 1000, 1500 of them), no synthetic data; a grid has Table 6 when it
+is given real training frames (``bench grid --real-train``).
+
+Presets (:data:`PRESETS`): ``paper`` (Tables 1-5), ``paper-table1`` ... ``paper-table6`` at
 paper scale (626/2500 images, 416 px, X101-FPN, 1500 iterations) and ``smoke`` (every row of
 every table with ~1/50 of the images at 160 px, 12 iterations, MobileNetV3: a few minutes on
 a 2-core CPU, for CI).
@@ -46,6 +50,19 @@ class Cell:
 
 
 @dataclass(frozen=True)
+class RealCell:
+    """One training on real frames only (the paper's Table 6): ``n`` (the paper's count,
+    scaled as the synthetic cells' are) of the user's labelled frames, the same seeded order
+    for every cell, so each cell's frames hold the smaller cells'."""
+
+    n: int = 500
+
+    @property
+    def id(self) -> str:
+        return f"real-n{self.n}"
+
+
+@dataclass(frozen=True)
 class Table:
     """One of the paper's tables: ``rows`` of (label, cell); ``vary`` names what changes
     (altitude, water or size) for plots."""
@@ -53,7 +70,12 @@ class Table:
     number: int
     title: str
     vary: str
-    rows: tuple[tuple[str, Cell], ...]
+    rows: tuple[tuple[str, Cell | RealCell], ...]
+
+    @property
+    def real(self) -> bool:
+        """Whether the table trains on the user's real frames (Table 6)."""
+        return any(isinstance(c, RealCell) for _, c in self.rows)
 
 
 def _tables() -> dict[int, Table]:
@@ -72,7 +94,9 @@ def _tables() -> dict[int, Table]:
             3: Table(3, "dataset size, 10 m brown water (G = 137 green-water images)",
                      "size", sizes),
             4: Table(4, "altitude, 2500 images, brown water", "altitude", alt(2500)),
-            5: Table(5, "water colour, 2500 images at 10 m", "water", colour(2500))}
+            5: Table(5, "water colour, 2500 images at 10 m", "water", colour(2500)),
+            6: Table(6, "real frames only (--real-train), no synthetic data", "size",
+                     tuple((str(n), RealCell(n)) for n in (500, 1000, 1500)))}
 
 
 TABLES = _tables()
@@ -141,12 +165,17 @@ class GridSpec:
         """Images generated for the paper's count ``n`` at this grid's scale."""
         return max(self.min_images, int(round(n * self.size_scale)))
 
-    def rows(self) -> list[tuple[Table, str, Cell]]:
+    def rows(self) -> list[tuple[Table, str, Cell | RealCell]]:
         return [(TABLES[t], label, cell) for t in self.tables for label, cell in TABLES[t].rows]
 
-    def cells(self) -> list[Cell]:
+    def cells(self) -> list[Cell | RealCell]:
         """Distinct cells in table order (a cell in several tables is trained once)."""
         return list(dict.fromkeys(cell for _, _, cell in self.rows()))
+
+    @property
+    def real(self) -> bool:
+        """Whether a table of the grid trains on real frames (Table 6)."""
+        return any(TABLES[t].real for t in self.tables)
 
     def parts(self, cell: Cell) -> list[DatasetPart]:
         """The generated datasets a cell trains on."""
@@ -179,7 +208,7 @@ _SMOKE_TRAIN = TrainConfig(backbone="mobilenet_v3-fpn", lr=0.01, max_iter=8, bat
 
 PRESETS: dict[str, GridSpec] = {
     "paper": GridSpec("paper"),
-    **{f"paper-table{t}": GridSpec(f"paper-table{t}", (t,)) for t in (1, 2, 3, 4, 5)},
+    **{f"paper-table{t}": GridSpec(f"paper-table{t}", (t,)) for t in (1, 2, 3, 4, 5, 6)},
     "smoke": GridSpec("smoke", size_scale=0.02, image_size=160, train=_SMOKE_TRAIN,
                       field=FieldSpec(n=8)),
 }

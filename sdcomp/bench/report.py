@@ -6,7 +6,8 @@ Reads ``OUT/grid.json`` and ``OUT/cells/*.json`` (:mod:`.runner`), writes::
     OUT/report.md                 one table per paper table, test set named in each
     OUT/plots/ap_vs_altitude.png  Tables 1 and 4: AP and AP50 (ours, paper dashed) vs metres
     OUT/plots/ap_by_water.png     Tables 2 and 5: AP50 per water colour, ours beside the paper
-    OUT/plots/ap_vs_size.png      Table 3: AP and AP50 vs training images (+G marked)
+    OUT/plots/ap_vs_size.png      Table 3: AP and AP50 vs training images (+G marked), and
+                                  Table 6's real-only AP50 where the grid ran it
 
 Figures are percentages (x 100) with two decimals, as the paper prints them; ``-`` marks a
 metric COCO leaves undefined (-1 in the JSON) and ``(not run)`` a row without results.
@@ -23,7 +24,7 @@ from typing import Any
 from ..errors import UserError
 from ..util.files import atomic_write_bytes
 from .evaluate import METRICS
-from .grid import PAPER, PAPER_METRICS, TABLES
+from .grid import PAPER, PAPER_METRICS, TABLES, Cell
 from .runner import read_cell
 
 PLOTS = ("ap_vs_altitude.png", "ap_by_water.png", "ap_vs_size.png")
@@ -90,13 +91,17 @@ def markdown(meta: dict, rows: dict[tuple[int, str], dict]) -> str:
                 ours = ["(not run)", *[""] * (len(METRICS) + 1)]  # metrics, val AP50
             else:
                 m = data["test"]["metrics"]
+                val = data.get("val")
                 ours = [str(data.get("train_images", "")), *(_pct(m[k]) for k in METRICS),
-                        _pct(data["val"]["metrics"]["AP50"])]
+                        "-" if val is None else _pct(val["metrics"]["AP50"])]
             lines.append("| " + " | ".join([label, *ours, "", *(f"{p:.2f}" for p in paper)])
                          + " |")
         lines.append("")
+    if 6 in grid.get("tables", []):
+        return "\n".join(lines)
     lines += ["## Table 6 (the paper's only): trained on real frames, no synthetic data", "",
-              "Needs your labelled real training frames; printed for comparison.", "",
+              "Needs your labelled real training frames (`--real-train FILE "
+              "--real-train-images DIR`); printed for comparison.", "",
               "| real training images | " + " | ".join(f"paper {m}" for m in PAPER_METRICS)
               + " |", "|" + "---|" * (len(PAPER_METRICS) + 1)]
     lines += [f"| {label} | " + " | ".join(f"{p:.2f}" for p in vals) + " |"
@@ -113,6 +118,13 @@ def _series(rows, table: int, metric: str) -> list[Any]:
         v = None if data is None else data["test"]["metrics"][metric]
         out.append(None if v is None or v < 0 else 100 * v)
     return out
+
+
+def _cells(table: int) -> list[Cell]:
+    """The synthetic cells of ``table``'s rows (Tables 1-5), in order."""
+    cells = [c for _, c in TABLES[table].rows]
+    assert all(isinstance(c, Cell) for c in cells), table
+    return [c for c in cells if isinstance(c, Cell)]
 
 
 def _save(fig, path: Path) -> None:
@@ -144,8 +156,8 @@ def _plot_altitude(ax, rows: dict, tables: set, label: str) -> None:
     """AP vs altitude (Tables 1 and 4): our AP50 and AP of the tables in ``tables`` (x 100,
     per metre of altitude), the paper's AP50 dashed; ``label`` names the test set."""
     for t, colour in ((1, "tab:blue"), (4, "tab:orange")):
-        alts = [c.altitude for _, c in TABLES[t].rows]
-        n = TABLES[t].rows[0][1].n
+        alts = [c.altitude for c in _cells(t)]
+        n = _cells(t)[0].n
         if t in tables:
             ax.plot(alts, _series(rows, t, "AP50"), "o-", color=colour, label=f"ours AP50, {n}")
             ax.plot(alts, _series(rows, t, "AP"), "s-", color=colour, alpha=0.5,
@@ -162,7 +174,7 @@ def _plot_water(ax, rows: dict, tables: set, label: str) -> None:
     bars = [(t, who) for t in (2, 5) for who in ("ours", "paper")]
     width = 0.8 / len(bars)
     for k, (t, who) in enumerate(bars):
-        n = TABLES[t].rows[0][1].n
+        n = _cells(t)[0].n
         if who == "ours":
             vals = _series(rows, t, "AP50") if t in tables else [None] * 3
         else:
@@ -179,9 +191,9 @@ def _plot_size(ax, rows: dict, tables: set, label: str) -> None:
     """AP and AP50 vs dataset size (Table 3, log x: the paper's image counts, +G rows
     marked apart), ours (x 100, if table 3 is in ``tables``) and the paper's dashed;
     ``label`` names the test set."""
-    sizes = [c.n + c.green for _, c in TABLES[3].rows]
-    plain = [i for i, (_, c) in enumerate(TABLES[3].rows) if not c.green]
-    green = [i for i, (_, c) in enumerate(TABLES[3].rows) if c.green]
+    sizes = [c.n + c.green for c in _cells(3)]
+    plain = [i for i, c in enumerate(_cells(3)) if not c.green]
+    green = [i for i, c in enumerate(_cells(3)) if c.green]
     paper = [PAPER[3][lbl] for lbl, _ in TABLES[3].rows]
     for metric, idx, marker in (("AP50", 1, "o"), ("AP", 0, "s")):
         ours = _series(rows, 3, metric) if 3 in tables else [None] * len(sizes)
@@ -193,6 +205,12 @@ def _plot_size(ax, rows: dict, tables: set, label: str) -> None:
                 color="gray", mfc="none", label=f"paper {metric}")
         ax.plot([sizes[i] for i in green], [paper[i][idx] for i in green], marker,
                 color="gray", mfc="none", ms=9, label=f"paper {metric} +G")
+    if 6 in tables:  # Table 6: real frames only, the paper's counts
+        real = [int(lbl) for lbl, _ in TABLES[6].rows]
+        ax.plot(real, _series(rows, 6, "AP50"), "^-", color="tab:red",
+                label="ours AP50, real only")
+        ax.plot(real, [PAPER[6][str(n)][1] for n in real], "^--", color="tab:red",
+                mfc="none", alpha=0.6, label="paper AP50, real only")
     ax.set_xscale("log")
     ax.set_xticks(sizes, [lbl for lbl, _ in TABLES[3].rows], fontsize=7)
     ax.minorticks_off()

@@ -26,9 +26,18 @@ from .. import __version__
 from ..errors import UserError
 from ..util.files import atomic_write_bytes
 from . import require_torch
-from .datasets import CacheOptions, EvalSet, config_key, ensure_dataset, merged_split, val_set
+from .datasets import (
+    CacheOptions,
+    EvalSet,
+    RealTrain,
+    check_disjoint,
+    config_key,
+    ensure_dataset,
+    merged_split,
+    val_set,
+)
 from .evaluate import evaluate_detector
-from .grid import Cell, DatasetPart, GridSpec
+from .grid import Cell, DatasetPart, GridSpec, RealCell
 from .train import train, train_key, training_items
 
 FORMAT = "sdcomp-bench-cell"
@@ -66,16 +75,27 @@ def read_cell(path: Path) -> dict | None:
     return data if isinstance(data, dict) and data.get("format") == FORMAT else None
 
 
-def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
-             rows: list[tuple[int, str]] | None = None, on_iteration=None) -> dict:
+def run_cell(cell: Cell | RealCell, grid: GridSpec, test: EvalSet, ctx: RunContext,
+             rows: list[tuple[int, str]] | None = None, on_iteration=None,
+             real: RealTrain | None = None) -> dict:
     """Train and score ``cell`` (or return its finished result); returns the cell's JSON.
 
-    ``rows``: (table number, row label) pairs the cell stands for, recorded in its JSON.
+    ``rows``: (table number, row label) pairs the cell stands for, recorded in its JSON;
+    ``real``: the user's real training frames, which a :class:`RealCell` trains on (it has
+    no synthetic val split: its ``val`` is None).
     """
     t_all = time.perf_counter()
-    parts = grid.parts(cell)
-    configs = [p.generator_config() for p in parts]
-    keys = [config_key(c) for c in configs]
+    if isinstance(cell, RealCell):
+        if real is None:
+            raise UserError(f"cell {cell.id} (Table 6) trains on your real frames: give "
+                            f"--real-train FILE --real-train-images DIR")
+        parts: list[DatasetPart] = []
+        configs: list = []
+        keys = [real.key, f"real{grid.images(cell.n)}"]
+    else:
+        parts = grid.parts(cell)
+        configs = [p.generator_config() for p in parts]
+        keys = [config_key(c) for c in configs]
     key = train_key(grid.train, keys, grid.image_size)
     path = cell_path(ctx.out, cell.id)
     old = read_cell(path)
@@ -85,18 +105,24 @@ def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
     t0 = time.perf_counter()
     folders, reused = _ensure_datasets(parts, configs, ctx.cache)
     t_data = time.perf_counter() - t0
-    items = training_items(merged_split(folders, "train"))
+    if isinstance(cell, RealCell):
+        assert real is not None
+        items = real.pick(grid.images(cell.n), grid.seed)
+    else:
+        items = training_items(merged_split(folders, "train"))
     ckpt_file = checkpoint_path(ctx.out, cell.id)
     model, history = train(grid.train, items, grid.image_size, ckpt_file, key, ctx.device,
                            ctx.progress, on_iteration)
     t0 = time.perf_counter()
-    val = evaluate_detector(model, val_set(folders), ctx.device, ctx.eval_batch)
+    val = evaluate_detector(model, val_set(folders), ctx.device, ctx.eval_batch) \
+        if folders else None
     result = evaluate_detector(model, test, ctx.device, ctx.eval_batch)
     t_eval = time.perf_counter() - t0
+    record = _config_record(cell, grid, parts, configs, keys, folders, reused) \
+        if isinstance(cell, Cell) else _real_record(cell, grid, real)
     data = {
         "format": FORMAT, "cell": cell.id, "rows": [list(r) for r in rows or []],
-        "grid": grid.name, "train_key": key,
-        "config": _config_record(cell, grid, parts, configs, keys, folders, reused),
+        "grid": grid.name, "train_key": key, "config": record,
         "seed": {"datasets": [p.seed for p in parts], "train": grid.train.seed},
         **_environment(ctx.device),
         "train_images": len(items),
@@ -115,9 +141,12 @@ def run_cell(cell: Cell, grid: GridSpec, test: EvalSet, ctx: RunContext,
     return data
 
 
-def ensure_cell_datasets(grid: GridSpec, cell: Cell, cache: CacheOptions) -> list[Path]:
+def ensure_cell_datasets(grid: GridSpec, cell: Cell | RealCell, cache: CacheOptions
+                         ) -> list[Path]:
     """Generate (or find in ``cache``) the datasets ``cell`` trains on; returns their
-    folders."""
+    folders (none for a real cell)."""
+    if isinstance(cell, RealCell):
+        return []
     parts = grid.parts(cell)
     return _ensure_datasets(parts, [p.generator_config() for p in parts], cache)[0]
 
@@ -149,6 +178,17 @@ def _config_record(cell: Cell, grid: GridSpec, parts: list[DatasetPart], configs
                                                   strict=True)]}
 
 
+def _real_record(cell: RealCell, grid: GridSpec, real: RealTrain | None) -> dict:
+    """The ``config`` entry of a Table 6 cell's JSON: the cell, the training settings and
+    the real frames it drew from (``datasets`` empty)."""
+    assert real is not None
+    return {"cell": {"paper_images": cell.n, "real_images": grid.images(cell.n)},
+            "train": grid.train.to_dict(), "image_size": grid.image_size,
+            "real_train": {"label": real.label, "files": list(real.files), "key": real.key,
+                           "pool": len(real.items)},
+            "datasets": []}
+
+
 def _environment(device: str) -> dict:
     """The ``device``, ``device_name``, ``threads`` and ``versions`` entries of a cell's
     JSON: what it ran on."""
@@ -174,7 +214,7 @@ def _settings(grid: dict) -> dict:
 
 
 def prepare_results(grid: GridSpec, test: EvalSet, ctx: RunContext,
-                    overwrite: bool = False) -> None:
+                    overwrite: bool = False, real: RealTrain | None = None) -> None:
     """Check the results folder (a grid run with other training settings is refused unless
     ``overwrite``, which removes its cells and checkpoints) and write ``grid.json``."""
     out = Path(ctx.out)
@@ -183,7 +223,8 @@ def prepare_results(grid: GridSpec, test: EvalSet, ctx: RunContext,
     meta_path = out / "grid.json"
     meta: dict[str, Any] = {
         "format": "sdcomp-bench-grid", "grid": grid.to_dict(), "test_set": test.label,
-        "test_kind": test.kind, "test_files": test.files, "device": ctx.device}
+        "test_kind": test.kind, "test_files": test.files, "device": ctx.device,
+        "real_train": None if real is None else real.label}
     if meta_path.exists() and not overwrite:
         try:
             old = json.loads(meta_path.read_text())
@@ -199,13 +240,31 @@ def prepare_results(grid: GridSpec, test: EvalSet, ctx: RunContext,
     write_json(meta_path, meta)
 
 
+def check_real(grid: GridSpec, test: EvalSet | None, real: RealTrain | None) -> None:
+    """UserError, before anything is written, when the grid's Table 6 has no real frames,
+    fewer than its largest cell asks, or frames of the ``test`` set (unless None) among
+    them."""
+    if not grid.real:
+        return
+    if real is None:
+        raise UserError(f"--preset {grid.name}: Table 6 trains on your real frames; give "
+                        f"--real-train FILE --real-train-images DIR (COCO, category "
+                        f"bluerov2)")
+    real.pick(max(grid.images(c.n) for c in grid.cells() if isinstance(c, RealCell)),
+              grid.seed)
+    if test is not None:
+        check_disjoint(real, test)
+
+
 def run_grid(grid: GridSpec, test: EvalSet, ctx: RunContext, overwrite: bool = False,
-             log=print) -> list[dict]:
+             log=print, real: RealTrain | None = None) -> list[dict]:
     """Every cell of ``grid`` (finished ones skipped); writes grid.json; returns the cells'
-    JSON dicts in table order. ``log`` gets one line per cell."""
-    prepare_results(grid, test, ctx, overwrite)
+    JSON dicts in table order. ``log`` gets one line per cell; ``real``: Table 6's real
+    training frames (:func:`check_real`)."""
+    check_real(grid, test, real)
+    prepare_results(grid, test, ctx, overwrite, real)
     out = Path(ctx.out)
-    rows: dict[Cell, list] = {}
+    rows: dict[Cell | RealCell, list] = {}
     for table, label, cell in grid.rows():
         rows.setdefault(cell, []).append((table.number, label))
     results = []
@@ -213,14 +272,17 @@ def run_grid(grid: GridSpec, test: EvalSet, ctx: RunContext, overwrite: bool = F
     for k, cell in enumerate(cells):
         t0 = time.perf_counter()
         was = read_cell(cell_path(out, cell.id))
-        data = run_cell(cell, grid, test, ctx, rows[cell])
+        data = run_cell(cell, grid, test, ctx, rows[cell], real=real)
         m = data["test"]["metrics"]
         state = "done earlier" if was is not None and was == data else (
             f"{time.perf_counter() - t0:.1f} s")
+        val = "real frames, no val split" if data["val"] is None else (
+            f"val AP {data['val']['metrics']['AP']:.3f}")
         log(f"[{k + 1}/{len(cells)}] {cell.id}: test AP {m['AP']:.3f} AP50 {m['AP50']:.3f}, "
-            f"val AP {data['val']['metrics']['AP']:.3f} ({state})")
+            f"{val} ({state})")
         results.append(data)
     return results
 
 
-__all__ = ["RunContext", "run_cell", "run_grid", "cell_path", "checkpoint_path", "read_cell"]
+__all__ = ["RunContext", "run_cell", "run_grid", "check_real", "cell_path", "checkpoint_path",
+           "read_cell"]
