@@ -19,6 +19,9 @@ from .water import WaterLight
 FOAM_ALBEDO = 0.6  # of the surf line along the shore
 HILL_ALBEDO = (0.06, 0.08, 0.05)  # linear RGB: wooded hills
 HILL_DISTANCE = 3000.0  # metres: how far the hills are (their haze)
+#: the land polygon's near plane, in altitudes along the optical axis: the ground in view
+#: lies at least cos(85 degrees) = 0.087 altitudes deep (views up to 170 degrees across)
+NEAR = 0.02
 
 
 def diffuse_scale(light: WaterLight) -> np.ndarray:
@@ -41,31 +44,10 @@ def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Sho
     """Land beyond the coastline of ``shore`` drawn in place on the uint8 (H, W, 3)
     ``image``: a textured polygon with a foam line at the shore, lit by ``light``; ``seed``
     is the land texture's offset seed."""
-    w, h = model.width, model.height
-    a = math.radians(shore.angle)
-    normal = np.array([math.cos(a), math.sin(a)])
-    along_dir = np.array([-math.sin(a), math.cos(a)])
-    reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
-    along = np.linspace(-reach, reach, 800)
-    across = shore.distance + shore.wiggle(along)
-    coast = along[:, None] * along_dir + across[:, None] * normal
-    far = coast + normal * reach
-    poly_world = np.concatenate([coast, far[::-1]])
-    pts = np.concatenate([poly_world, np.zeros((len(poly_world), 1))], axis=1)
-    uv, depth = project(model, pose, pts)
-    ok = (depth > 1e-3) & np.isfinite(uv).all(axis=1)
-    if ok.sum() < 3:
+    masks = land_masks(model, pose, shore)
+    if masks is None:
         return
-    mask = np.zeros((h, w), np.uint8)
-    poly = np.round(uv[ok] * 16).astype(np.int32)
-    cv2.fillPoly(mask, [poly], 255, lineType=cv2.LINE_AA, shift=4)
-    if not mask.any():
-        return
-    line = np.round(uv[: len(coast)][ok[: len(coast)]] * 16).astype(np.int32)
-    foam = np.zeros((h, w), np.uint8)
-    thick = max(1, int(round(0.6 / max(pose.altitude / model.fx, 1e-6))))
-    cv2.polylines(foam, [line], False, 255, thickness=thick, lineType=cv2.LINE_AA,
-                  shift=4)
+    mask, foam = masks
     tex = ground_view(model, pose.altitude, pose.pitch, land,
                       *offsets(np.random.default_rng(list(seed))))
     scale = diffuse_scale(light)
@@ -79,6 +61,82 @@ def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Sho
     white = np.empty_like(land_px)
     white[:] = np.clip(foam_rgb + 0.5, 0, 255).astype(np.uint8)
     image[win] = cv2.blendLinear(land_px, white, 1.0 - f, f)
+
+
+def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
+               ) -> tuple[np.ndarray, np.ndarray] | None:
+    """(land, foam) uint8 (H, W) anti-aliased masks (255 = covered) of the land beyond the
+    coastline of ``shore`` and of its surf line, or None where no land is in view.
+
+    The land is a ground polygon (the coast and a far edge, ``8 x altitude`` metres out),
+    clipped at :data:`NEAR` before it is projected (:func:`clip_near`): its vertices
+    behind or beside the camera would project to no pixel, or past int32's range."""
+    w, h = model.width, model.height
+    a = math.radians(shore.angle)
+    normal = np.array([math.cos(a), math.sin(a)])
+    along_dir = np.array([-math.sin(a), math.cos(a)])
+    reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
+    along = np.linspace(-reach, reach, 800)
+    across = shore.distance + shore.wiggle(along)
+    coast = along[:, None] * along_dir + across[:, None] * normal
+    far = coast + normal * reach
+    poly_world = np.concatenate([coast, far[::-1]])
+    pts = np.concatenate([poly_world, np.zeros((len(poly_world), 1))], axis=1)
+    near = NEAR * pose.altitude
+    depth = project(model, pose, pts)[1]
+    clipped = clip_near(pts, depth, near, closed=True)
+    if not clipped:
+        return None
+    mask = np.zeros((h, w), np.uint8)
+    cv2.fillPoly(mask, [_fixed(model, pose, clipped[0])], 255, lineType=cv2.LINE_AA, shift=4)
+    if not mask.any():
+        return None
+    foam = np.zeros((h, w), np.uint8)
+    thick = max(1, int(round(0.6 / max(pose.altitude / model.fx, 1e-6))))
+    lines = [_fixed(model, pose, piece) for piece in
+             clip_near(pts[: len(coast)], depth[: len(coast)], near, closed=False)]
+    cv2.polylines(foam, lines, False, 255, thickness=thick, lineType=cv2.LINE_AA, shift=4)
+    return mask, foam
+
+
+def clip_near(points: np.ndarray, depth: np.ndarray, near: float, closed: bool
+              ) -> list[np.ndarray]:
+    """The parts of a polygon (``closed``) or polyline through ``points`` (N, 3) world
+    metres in front of the plane ``depth == near`` (``depth`` (N,) metres along the optical
+    axis, affine in the points, so edges are cut exactly): [polygon] or [] for a closed one
+    (Sutherland-Hodgman against one plane), the runs of a polyline (each (M >= 2, 3)).
+    Points all in front come back unchanged."""
+    inside = depth >= near
+    if inside.all():
+        return [points]
+    n = len(points)
+    nxt = np.roll(np.arange(n), -1)
+    t = (near - depth) / np.where(depth[nxt] != depth, depth[nxt] - depth, 1.0)
+    cross = points + t[:, None] * (points[nxt] - points)  # where edge i -> i+1 meets it
+    cuts = inside != inside[nxt]
+    if closed:
+        both = np.stack([points, cross], axis=1).reshape(-1, 3)
+        keep = np.stack([inside, cuts], axis=1).reshape(-1)
+        kept = both[keep]
+        return [kept] if len(kept) >= 3 else []
+    pieces = []
+    idx = np.flatnonzero(inside)
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    for s, e in zip(np.r_[idx[:1], idx[breaks + 1]], np.r_[idx[breaks], idx[-1:]],
+                    strict=True):
+        run = [cross[s - 1:s]] if s > 0 else []
+        run += [points[s:e + 1]] + ([cross[e:e + 1]] if e < n - 1 else [])
+        piece = np.concatenate(run)
+        if len(piece) >= 2:
+            pieces.append(piece)
+    return pieces
+
+
+def _fixed(model: CameraModel, pose: CameraPose, points: np.ndarray) -> np.ndarray:
+    """(N, 2) int32 pixel coordinates x 16 (OpenCV's ``shift=4``) of world ``points`` (N, 3)
+    in front of the camera; held inside int32 (a bound far outside any frame)."""
+    uv = project(model, pose, points)[0]
+    return np.clip(np.round(uv * 16), -2 ** 30, 2 ** 30).astype(np.int32)
 
 
 def add_hills(image: np.ndarray, model: CameraModel, pose: CameraPose, seed: int,
