@@ -226,3 +226,44 @@ def test_mooring_atlases_only_for_runs_that_moor():
     assert moorings(_config(moored=0.5)) == set(ASSETS)
     assert moorings(_config(moored=0.0)) == set()
     assert moorings(GeneratorConfig(moored=1.0)) == set()  # the BlueROV2: nothing moors
+
+
+def test_docks_near_a_shore_run_out_from_it():
+    """With a shore in the image, a moored object within 25 m of the coast lies beside a
+    dock rooted on it: the dock along the coast's normal, its land end on the land and its
+    other end on the water, the object bow to the land, all of it on the water and its
+    centre still in view; objects the shore cannot take keep their open-water docks."""
+    from sdcomp.assets import clutter
+    from sdcomp.scene.moorings import ROOT, half_length, in_view
+    from sdcomp.scene.scene import on_land
+    config = _config(moored=1.0, shore=1.0, count="1-3", clutter=0)
+    rooted = docks = 0
+    for i in range(60):
+        scene = sample_scene(config, i)
+        shore = scene.shore
+        assert shore is not None
+        objs = [p for p in scene.placements if p.role is Role.OBJECT]
+        for m in (p for p in scene.placements if p.asset.endswith("dock")):
+            docks += 1
+            if not _same(m, replace(m, heading=shore.angle)):
+                continue
+            rooted += 1
+            h = math.radians(m.heading)
+            end = clutter.DOCK_LENGTH / 2
+            land_end = (m.x + end * math.cos(h), m.y + end * math.sin(h))
+            sea_end = (m.x - end * math.cos(h), m.y - end * math.sin(h))
+            assert on_land(shore, *land_end) and not on_land(shore, *sea_end)
+            # its root: ROOT metres past the coast at its place along it, give or take the
+            # coast's wiggle over the dock's offset from its object
+            a = math.radians(shore.angle)
+            along = -land_end[0] * math.sin(a) + land_end[1] * math.cos(a)
+            across = land_end[0] * math.cos(a) + land_end[1] * math.sin(a)
+            assert across - (shore.distance + shore.wiggle(along)) == pytest.approx(
+                ROOT, abs=0.6)
+            obj = min((o for o in objs if _same(o, m)), key=lambda o: abs(_body(o, m)[1]))
+            for sign in (1, -1):
+                x = obj.x + sign * half_length(obj.asset) * math.cos(h)
+                y = obj.y + sign * half_length(obj.asset) * math.sin(h)
+                assert not on_land(shore, x, y)
+            assert in_view(scene.model, scene.camera, obj.x, obj.y)
+    assert docks > 60 and 0.3 * docks <= rooted <= docks

@@ -48,8 +48,8 @@ class Background:
         image, _ = draw_water(view, self.textures.water,
                               glint="sparkles" if scene.glitter else "mean")
         if scene.shore is not None:
-            add_land(image, model, pose, scene.shore, self.textures.land, view.light,
-                     scene.seeds.land)
+            add_land(image, model, pose, scene.shore, self.textures.land,
+                     self.textures.stones, view.light, scene.seeds.land)
         if scene.hills is not None:
             add_hills(image, model, pose, scene.hills, view.light, scene.water.visibility)
         return image, view.light, None

@@ -1,6 +1,6 @@
-"""What is not water: land beyond a coastline, and hills standing on the horizon, lit by the
-sun and sky of the image's :class:`~sdcomp.render.water.WaterLight` and exposed like the
-water."""
+"""What is not water: land beyond a coastline (rip-rap along it), and hills standing on the
+horizon, lit by the sun and sky of the image's :class:`~sdcomp.render.water.WaterLight` and
+exposed like the water."""
 
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from .ground import ground_view, offsets
 from .textures import Texture
 from .water import WaterLight
 
-FOAM_ALBEDO = 0.6  # of the surf line along the shore
 HILL_ALBEDO = (0.06, 0.08, 0.05)  # linear RGB: wooded hills
 HILL_DISTANCE = 3000.0  # metres: how far the hills are (their haze)
 #: the land polygon's near plane, in altitudes along the optical axis: the ground in view
@@ -40,33 +39,41 @@ def albedo_table(scale: np.ndarray) -> np.ndarray:
 
 
 def add_land(image: np.ndarray, model: CameraModel, pose: CameraPose, shore: Shore,
-             land: Texture, light: WaterLight, seed: tuple[int, ...]) -> None:
+             land: Texture, stones: Texture, light: WaterLight, seed: tuple[int, ...]
+             ) -> None:
     """Land beyond the coastline of ``shore`` drawn in place on the uint8 (H, W, 3)
-    ``image``: a textured polygon with a foam line at the shore, lit by ``light``; ``seed``
-    is the land texture's offset seed."""
+    ``image``: a textured polygon (``land``) with a band of rip-rap (``stones``) along the
+    shore, :func:`shore_band` metres wide, lit by ``light``; ``seed`` is the textures'
+    offset seed."""
     masks = land_masks(model, pose, shore)
     if masks is None:
         return
-    mask, foam = masks
-    tex = ground_view(model, pose.altitude, pose.pitch, land,
-                      *offsets(np.random.default_rng(list(seed))))
-    scale = diffuse_scale(light)
-    bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, foam))
-    win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or foam is
+    mask, band = masks
+    rng = np.random.default_rng(list(seed))
+    tex = ground_view(model, pose.altitude, pose.pitch, land, *offsets(rng))
+    table = albedo_table(diffuse_scale(light))
+    bx, by, bw, bh = cv2.boundingRect(cv2.bitwise_or(mask, band))
+    win = (slice(by, by + bh), slice(bx, bx + bw))  # only where land or stones are
     m = mask[win].astype(np.float32) * np.float32(1.0 / 255.0)
-    lit = cv2.LUT(np.ascontiguousarray(tex[win]), albedo_table(scale))
+    lit = cv2.LUT(np.ascontiguousarray(tex[win]), table)
     land_px = cv2.blendLinear(image[win], lit, 1.0 - m, m)
-    f = foam[win].astype(np.float32) * np.float32(0.7 / 255.0)
-    foam_rgb = linear_to_srgb(np.clip(scale * FOAM_ALBEDO, 0, 1)) * 255.0
-    white = np.empty_like(land_px)
-    white[:] = np.clip(foam_rgb + 0.5, 0, 255).astype(np.uint8)
-    image[win] = cv2.blendLinear(land_px, white, 1.0 - f, f)
+    stone = ground_view(model, pose.altitude, pose.pitch, stones, *offsets(rng))
+    f = band[win].astype(np.float32) * np.float32(1.0 / 255.0)
+    lit_stone = cv2.LUT(np.ascontiguousarray(stone[win]), table)
+    image[win] = cv2.blendLinear(land_px, lit_stone, 1.0 - f, f)
+
+
+def shore_band(shore: Shore) -> float:
+    """Width (metres) of the rip-rap along the coast of ``shore``: 0.8 to 3 m, drawn from
+    its seed (its own stream: no other draw moves)."""
+    return float(np.random.default_rng([shore.seed, 0xBA9D]).uniform(0.8, 3.0))
 
 
 def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
                ) -> tuple[np.ndarray, np.ndarray] | None:
-    """(land, foam) uint8 (H, W) anti-aliased masks (255 = covered) of the land beyond the
-    coastline of ``shore`` and of its surf line, or None where no land is in view.
+    """(land, band) uint8 (H, W) anti-aliased masks (255 = covered) of the land beyond the
+    coastline of ``shore`` and of the rip-rap band along it (:func:`shore_band` wide,
+    centred on the coast), or None where no land is in view.
 
     The land is a ground polygon (the coast and a far edge, ``8 x altitude`` metres out),
     clipped at :data:`NEAR` before it is projected (:func:`clip_near`): its vertices
@@ -76,7 +83,8 @@ def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
     normal = np.array([math.cos(a), math.sin(a)])
     along_dir = np.array([-math.sin(a), math.cos(a)])
     reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
-    along = np.linspace(-reach, reach, 800)
+    # vertices at most 8 px apart straight down (the wiggle's finest wave is 3.5 m)
+    along = np.linspace(-reach, reach, max(800, int(math.ceil(2 * model.fx))))
     across = shore.distance + shore.wiggle(along)
     coast = along[:, None] * along_dir + across[:, None] * normal
     far = coast + normal * reach
@@ -91,12 +99,12 @@ def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
     cv2.fillPoly(mask, [_fixed(model, pose, clipped[0])], 255, lineType=cv2.LINE_AA, shift=4)
     if not mask.any():
         return None
-    foam = np.zeros((h, w), np.uint8)
-    thick = max(1, int(round(0.6 / max(pose.altitude / model.fx, 1e-6))))
+    band = np.zeros((h, w), np.uint8)
+    thick = max(1, int(round(shore_band(shore) / max(pose.altitude / model.fx, 1e-6))))
     lines = [_fixed(model, pose, piece) for piece in
              clip_near(pts[: len(coast)], depth[: len(coast)], near, closed=False)]
-    cv2.polylines(foam, lines, False, 255, thickness=thick, lineType=cv2.LINE_AA, shift=4)
-    return mask, foam
+    cv2.polylines(band, lines, False, 255, thickness=thick, lineType=cv2.LINE_AA, shift=4)
+    return mask, band
 
 
 def clip_near(points: np.ndarray, depth: np.ndarray, near: float, closed: bool

@@ -134,15 +134,60 @@ def land_tile(seed: int, n: int = 256, pitch: float = 0.25) -> Texture:
     return _pyramid(np.clip(np.rint(img), 0, 255).astype(np.uint8), pitch)
 
 
+def stone_tile(seed: int, n: int = 1024, pitch: float = 0.08, stone: float = 0.5
+               ) -> Texture:
+    """A periodic tile of rip-rap (sRGB uint8, 3 channels, ``n`` texels of ``pitch``
+    metres): rounded grey-white to buff stones about ``stone`` metres across (the cells of a
+    jittered grid, each its own shade, lit from one side, dark gaps between them), as lake
+    and harbour shores are armoured. Its 82 m period spans the frames whose pixels can show
+    a stone (4 cm a pixel at 800 px across: 32 m)."""
+    rng = np.random.default_rng([seed, 0x570E])
+    m = max(1, int(round(n * pitch / stone)))  # cells a side
+    c = np.float32(n / m)  # texels a cell
+    jitter = rng.uniform(0.1, 0.9, (2, m, m)).astype(np.float32)
+    shade = rng.uniform(0.0, 1.0, (m, m)).astype(np.float32)
+    stretch = rng.uniform(0.75, 1.3, (m, m)).astype(np.float32)  # elongated stones
+    y, x = np.mgrid[0:n, 0:n].astype(np.float32) + np.float32(0.5)
+    ix, iy = np.floor(x / c).astype(np.int32), np.floor(y / c).astype(np.int32)
+    f1 = np.full((n, n), np.inf, np.float32)  # distance to the nearest cell's centre
+    f2 = f1.copy()  # to the second nearest
+    cell = np.zeros((n, n), np.int64)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            wx, wy = (ix + dx) % m, (iy + dy) % m
+            e = stretch[wy, wx]
+            d = np.hypot((x - ((ix + dx).astype(np.float32) + jitter[0, wy, wx]) * c) * e,
+                         (y - ((iy + dy).astype(np.float32) + jitter[1, wy, wx]) * c) / e)
+            closer = d < f1
+            f2 = np.where(closer, f1, np.minimum(f2, d))
+            cell = np.where(closer, wy * m + wx, cell)
+            f1 = np.where(closer, d, f1)
+    gap = np.clip((f2 - f1) / (0.18 * c), 0, 1) ** 0.6  # 0 between stones
+    dome = np.clip(1 - f1 / (0.8 * c), 0, 1).astype(np.float32)
+    slope = cv2.Sobel(dome, cv2.CV_32F, 1, 0) + cv2.Sobel(dome, cv2.CV_32F, 0, 1)
+    lit = 1 + 0.22 * np.clip(-0.7 * slope, -1, 1)
+    t = (0.35 + 0.65 * shade.reshape(-1)[cell])[..., None]
+    pale = np.array([206, 204, 198], np.float32)  # sRGB
+    buff = np.array([170, 152, 130], np.float32)
+    img = (pale * t + buff * (1 - t)) * ((0.25 + 0.75 * gap) * lit)[..., None]
+    return _pyramid(np.clip(np.rint(img), 0, 255).astype(np.uint8), pitch)
+
+
 @dataclass(frozen=True, eq=False)
 class Textures:
-    """The textures of a run: the water's tiles and the land's."""
+    """The textures of a run: the water's tiles, the land's and the shore's rip-rap."""
 
     water: WaterTextures
     land: Texture
+    seed: int = 0
 
     @classmethod
     def build(cls, seed: int) -> Textures:
         """The textures of a run of ``seed`` (0.5 s, 40 MB; more water tiles are made on
-        first use: :meth:`WaterTextures.build`)."""
-        return cls(WaterTextures.build(seed), land_tile(seed))
+        first use: :meth:`WaterTextures.build`, the shore's stones too)."""
+        return cls(WaterTextures.build(seed), land_tile(seed), seed)
+
+    @cached_property
+    def stones(self) -> Texture:
+        """The rip-rap along a shore (:func:`stone_tile`), made on first use (0.8 s)."""
+        return stone_tile(self.seed)

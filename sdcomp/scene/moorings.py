@@ -10,7 +10,10 @@ boat or jet ski, with the config's ``moored`` chance, a dock alongside (either s
 object anywhere along it), with :data:`CANOPY_CHANCE`, a canopied lift on its other
 side, and a jet ski with :data:`PORT_CHANCE` on a drive-on port (a dark float frame that
 holds it out of the water) and with :data:`PAIR_CHANCE` the image's next jet ski moved
-alongside it. Moored objects lie at rest (no wake, no wave tilt). The moorings are
+alongside it. Where the image has a shore within :data:`SHORE_REACH` of the object, the
+dock runs out from it (its root :data:`ROOT` metres on the land, the object alongside it,
+bow to the shore), as the photos' docks do, when the object stays in view there. Moored
+objects lie at rest (no wake, no wave tilt). The moorings are
 clutter: never annotated, drawn through the same sprite, light, shadow and camera stages
 as any object.
 
@@ -26,6 +29,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..assets import clutter
+from .camera import CameraModel, CameraPose, project
 from .objects import CLUTTER_PREFIX, footprint_radius, keel_depth, object_kind, visible_hull
 from .scene import Placement, Role, Shore, on_land
 
@@ -39,6 +43,8 @@ PORT_CHANCE = 0.5
 PAIR_CHANCE = 0.5
 PORT_CLEARANCE = 0.08  # metres from the water up to the keel of a jet ski on its port
 GAP = (0.1, 0.5)  # metres of water between an object's side and the dock or lift beside it
+SHORE_REACH = 25.0  # metres from the coast within which a moored object's dock is rooted
+ROOT = 0.8  # metres of a rooted dock on the land
 #: half length and half width (metres) of each mooring's footprint
 HALF_SIZE = {"dock": (clutter.DOCK_LENGTH / 2, clutter.DOCK_WIDTH / 2),
              "canopy": (clutter.CANOPY_LENGTH / 2, clutter.CANOPY_WIDTH / 2),
@@ -114,15 +120,63 @@ def _neighbour(placements: tuple[Placement, ...], i: int, done: set[int]) -> int
                  and q.role is Role.OBJECT and object_kind(q.asset) == "jetski"), None)
 
 
+def in_view(model: CameraModel, pose: CameraPose, x: float, y: float) -> bool:
+    """Whether the sea point (x, y) metres is inside the image of ``model`` at ``pose``."""
+    uv, depth = project(model, pose, np.array([[x, y, 0.0]]))
+    u, v = uv[0]
+    return bool(depth[0] > 0 and 0 <= u < model.width and 0 <= v < model.height)
+
+
+def _at_shore(p: Placement, shore: Shore, shift: float, dock_across: float, others: list,
+              view: tuple[CameraModel, CameraPose] | None) -> tuple[Placement, float] | None:
+    """``p`` moved beside a dock rooted on the coast of ``shore`` (bow to the land, the
+    dock ``dock_across`` metres to its side, along the coast's normal, its root
+    :data:`ROOT` past the coast there; the object ``shift`` (0-1) of the way out along
+    it) and the dock's centre along the moved object (metres); None when ``p`` lies over
+    :data:`SHORE_REACH` from the coast, or would leave the ``view`` ((model, pose)), touch
+    ``others`` ((x, y, radius) discs) or the land."""
+    a = math.radians(shore.angle)
+    along = -p.x * math.sin(a) + p.y * math.cos(a)
+    coast = shore.distance + float(shore.wiggle(along))
+    if coast - (p.x * math.cos(a) + p.y * math.sin(a)) > SHORE_REACH:
+        return None
+    # bow to the land, the object's body y runs along the coast: the dock's place on it
+    root = shore.distance + float(shore.wiggle(along + dock_across)) + ROOT
+    length = half_length(p.asset)
+    room = max(clutter.DOCK_LENGTH - ROOT - 2 * length - 1.0, 0.0)
+    across = min(coast, root - ROOT) - (0.5 + length + room * shift)  # the object's centre
+    x = -along * math.sin(a) + across * math.cos(a)
+    y = along * math.cos(a) + across * math.sin(a)
+    q = replace(p, x=x, y=y, heading=shore.angle)
+    bow, stern = _world(q, length, 0.0), _world(q, -length, 0.0)
+    seen = view is None or in_view(view[0], view[1], x, y)
+    if not seen or on_land(shore, *bow) or on_land(shore, *stern) or not clear(
+            x, y, q.heading, (length, half_beam(p.asset)), others):
+        return None
+    return q, root - clutter.DOCK_LENGTH / 2 - across
+
+
+def _dock_place(p: Placement, shore: Shore | None, shift: float, dock_across: float,
+                others: list, view: tuple[CameraModel, CameraPose] | None
+                ) -> tuple[Placement, float]:
+    """(the moored object, its dock's centre along it, metres): beside a dock rooted on
+    the shore where :func:`_at_shore` finds room, else where it is, the dock ``shift``
+    (0-1) of 4 m along it."""
+    rooted = None if shore is None else _at_shore(p, shore, shift, dock_across, others, view)
+    return rooted if rooted is not None else (p, (shift - 0.5) * 4.0)
+
+
 def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, ...],
-         shore: Shore | None = None) -> tuple[Placement, ...]:
+         shore: Shore | None = None,
+         view: tuple[CameraModel, CameraPose] | None = None) -> tuple[Placement, ...]:
     """``placements`` with each boat and jet ski moored with chance ``moored``: at rest,
     level, with a dock beside it, perhaps a canopied lift on its other side and, for a jet
     ski, a drive-on port under it that holds it out of the water, and on half of them the
     image's next jet ski moved alongside, on the side away from the dock (clutter
     placements appended after all the others). A mooring or neighbour that would overlap
     another object's disc (:func:`~.objects.footprint_radius`), another mooring or land is
-    left out.
+    left out. Near a ``shore``, the object moves beside a dock rooted on it
+    (:func:`_at_shore`) where it stays in ``view`` ((model, pose) of the image).
 
     Draws from ``rng`` (a stream of its own) seven numbers per boat or jet ski, whatever
     is moored, so one object's draws never shift another's."""
@@ -145,6 +199,10 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
         on_port = object_kind(p.asset) == "jetski" and port < PORT_CHANCE
         beam = _beam(p.asset, on_port)
         wide = GAP[0] + (GAP[1] - GAP[0]) * gap
+        dock_across = sign * (beam + wide + HALF_SIZE["dock"][1])
+        p, dock_along = _dock_place(p, shore, shift, dock_across,
+                                    [d for k, d in discs.items() if k != i], view)
+        discs[i] = (p.x, p.y, discs[i][2])
         group = [(i, p)]
         far = -sign * beam  # the group's side away from the dock, across the first
         j = _neighbour(placements, i, done) if (object_kind(p.asset) == "jetski"
@@ -162,7 +220,7 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
                 far -= sign * (wide + 2 * side_j)
         others = [d for k, d in discs.items() if k not in {g for g, _ in group}]
         spots = [("port", q, 0.0, 0.0) for _, q in group if on_port]
-        spots += [("dock", p, sign * (beam + wide + HALF_SIZE["dock"][1]), (shift - 0.5) * 4.0)]
+        spots += [("dock", p, dock_across, dock_along)]
         if canopy < CANOPY_CHANCE:
             spots += [("canopy", p, far - sign * (wide + HALF_SIZE["canopy"][1]), 0.0)]
         raised: set[int] = set()  # the ids of the group's placements on a port

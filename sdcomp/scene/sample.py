@@ -65,7 +65,7 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
     placements = _travel(np.random.default_rng([int(config.seed), int(index), 0x3A4E]),
                          config, _placements(rng, config, model, pose, shore))
     placements = moor(np.random.default_rng([int(config.seed), int(index), 0x400D]),
-                      config.moored, placements, shore)
+                      config.moored, placements, shore, (model, pose))
     look = sample_look(config.look_preset, rng, model.width, model.height,
                        recording=config.recording, fx=model.fx, fy=model.fy,
                        motion=config.motion_blur, overrides=config.look_overrides())

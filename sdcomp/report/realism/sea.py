@@ -6,8 +6,8 @@ below it), from the run's camera and the image's gimbal pitch. Land and clutter:
 scene is drawn again (:func:`sdcomp.scene.sample.sample_scene`, a pure function of the
 config and the index) and used only if its camera pose, shore flag and object and clutter
 counts agree with the image's ``meta`` (a dataset written by another sdcomp version may
-draw other scenes); then the pixels whose ground point is on its land, widened by the foam
-line, are left out. Otherwise land is "unknown, accepted" and the report says so.
+draw other scenes); then the pixels whose ground point is on its land, widened by the
+rip-rap along the coast, are left out. Otherwise land is "unknown, accepted" and the report says so.
 
 Both are decided in the renderer's pinhole image; each pixel of the recorded image is looked
 up where the camera stage's lens (:mod:`sdcomp.render.camera.lens`: zoom and radial
@@ -26,6 +26,7 @@ import numpy as np
 from ...assets.library import kind_of
 from ...errors import UserError
 from ...render.camera.lens import undistort
+from ...render.land import shore_band
 from ...scene.camera import CameraModel, CameraPose, ground_points, horizon_row
 from ...scene.config import GeneratorConfig
 from ...scene.objects import CLUTTER_PREFIX
@@ -37,7 +38,6 @@ PITCH_KEY = "gimbal_pitch(degrees)"
 HEADING_KEY = "gimbal_heading(degrees)"
 GSD_KEY = "gsd(m/px)"
 SKY_MARGIN_ROWS = 2.0
-FOAM_M = 0.3  #: metres of foam line beside the land (widened by 2 px more)
 #: metres around a clutter object's centre left out by ``exclude_clutter``: half its kind's
 #: longest length (log 2.2 m, foam 1.5 m; the search-and-rescue kinds' largest variants:
 #: boats 12 m, jet skis 3.5 m) plus 1 m for its shadow
@@ -116,7 +116,9 @@ class SeaOracle:
             if scene.shore is not None:
                 land = np.zeros((h, w), np.uint8)
                 land[hit] = on_land(scene.shore, x[hit], y[hit])
-                r = math.ceil(FOAM_M / max(_gsd(model, scene.camera), 1e-6)) + 2
+                # the rip-rap reaches half its width past the coast, then 2 px more
+                r = math.ceil(shore_band(scene.shore) / 2 / max(_gsd(model, scene.camera),
+                                                                1e-6)) + 2
                 bad |= cv2.dilate(land, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
                 how.append("land excluded")
             for p in clutter:
