@@ -99,3 +99,31 @@ def test_linters_are_clean(tool, args):
         pytest.skip(f"{tool} is not installed (pip install -e '.[dev]' installs it)")
     proc = subprocess.run([exe, *args], cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+
+
+def test_a_new_engine_is_one_entry_for_stills_and_video(monkeypatch, tmp_path):
+    """``--engine`` of generate and video come from one registry each, with the same
+    names; an engine registered in both is what the commands run (no branch on a name)."""
+    from sdcomp.cli.generate import main as generate_main
+    from sdcomp.cli.video import main as video_main
+    from sdcomp.run import engines
+
+    assert set(engines.VIDEO_ENGINES) == set(engines.ENGINES)
+    calls: list[str] = []
+
+    def toy(kind):
+        def run(config, options, scheduler=None):
+            calls.append(kind)
+            return dict.fromkeys(("images", "train", "val", "annotations", "objects_truncated",
+                                  "objects_ignored", "objects_skipped", "objects_dropped",
+                                  "sequences", "frames", "tracks"), 0)
+        return run
+
+    monkeypatch.setitem(engines.ENGINES, "toy", toy("stills"))
+    monkeypatch.setitem(engines.VIDEO_ENGINES, "toy", toy("video"))
+    video_main(["--engine", "toy", "--sequences", "1", "--frames", "2", "-q",
+                "--out", str(tmp_path / "v")])
+    assert calls == ["video"]
+    assert generate_main(["--engine", "toy", "--n", "1", "-q", "--out",
+                          str(tmp_path / "g")]) == 0
+    assert calls == ["video", "stills"]

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from ..errors import UserError, run_cli
 from ..fitting.config_file import size_warning
-from ..run.video import run_video
+from ..run.engines import VIDEO_ENGINES
 from ..scene.config import GeneratorConfig, load_toml
 from ..scene.params import Param
 from ..scene.settings import setting_of, toml_value
@@ -119,12 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.progress = False
     options = run_options(args)
     start = time.perf_counter()
-    if args.engine == "dask":
-        from ..run.video_dask import run_video_dask  # dask is optional: imported only here
-
-        counts = run_video_dask(video, options, args.scheduler)
-    else:
-        counts = run_video(video, options)
+    counts = VIDEO_ENGINES[args.engine](video, options, args.scheduler)
     secs = time.perf_counter() - start
     log.info(f"wrote {counts['sequences']} sequences, {counts['frames']} frames, "
              f"{counts['annotations']} boxes of {counts['tracks']} tracks to {options.out} "
