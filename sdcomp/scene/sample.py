@@ -181,7 +181,7 @@ def _placements(rng: np.random.Generator, config: GeneratorConfig, model: Camera
     weights = [o.weight for o in config.objects]
     cumulative = np.cumsum(weights) if len(set(weights)) > 1 else None
     for _ in range(n_obj):
-        for _pick in range(SIZE_PICKS):
+        for _draw in range(SIZE_PICKS):
             k, asset, tint = _pick_object(rng, config, cumulative, pose.altitude)
             spec = config.objects[k]
             p = _place(rng, config, model, pose, shore, Role.OBJECT, (asset,), k + 1, tint,
