@@ -128,13 +128,14 @@ def in_view(model: CameraModel, pose: CameraPose, x: float, y: float) -> bool:
 
 
 def _at_shore(p: Placement, shore: Shore, shift: float, dock_across: float, others: list,
-              view: tuple[CameraModel, CameraPose] | None) -> tuple[Placement, float] | None:
+              rects: list[Rect], view: tuple[CameraModel, CameraPose] | None
+              ) -> tuple[Placement, float] | None:
     """``p`` moved beside a dock rooted on the coast of ``shore`` (bow to the land, the
     dock ``dock_across`` metres to its side, along the coast's normal, its root
     :data:`ROOT` past the coast there; the object ``shift`` (0-1) of the way out along
     it) and the dock's centre along the moved object (metres); None when ``p`` lies over
     :data:`SHORE_REACH` from the coast, or would leave the ``view`` ((model, pose)), touch
-    ``others`` ((x, y, radius) discs) or the land."""
+    ``others`` ((x, y, radius) discs), the moorings placed (``rects``) or the land."""
     a = math.radians(shore.angle)
     along = -p.x * math.sin(a) + p.y * math.cos(a)
     coast = shore.distance + float(shore.wiggle(along))
@@ -150,19 +151,21 @@ def _at_shore(p: Placement, shore: Shore, shift: float, dock_across: float, othe
     q = replace(p, x=x, y=y, heading=shore.angle)
     bow, stern = _world(q, length, 0.0), _world(q, -length, 0.0)
     seen = view is None or in_view(view[0], view[1], x, y)
+    body = (x, y, q.heading, (length, half_beam(p.asset)))
     if not seen or on_land(shore, *bow) or on_land(shore, *stern) or not clear(
-            x, y, q.heading, (length, half_beam(p.asset)), others):
+            *body, others) or any(overlap(body, r) for r in rects):
         return None
     return q, root - clutter.DOCK_LENGTH / 2 - across
 
 
 def _dock_place(p: Placement, shore: Shore | None, shift: float, dock_across: float,
-                others: list, view: tuple[CameraModel, CameraPose] | None
+                others: list, rects: list[Rect], view: tuple[CameraModel, CameraPose] | None
                 ) -> tuple[Placement, float]:
     """(the moored object, its dock's centre along it, metres): beside a dock rooted on
     the shore where :func:`_at_shore` finds room, else where it is, the dock ``shift``
     (0-1) of 4 m along it."""
-    rooted = None if shore is None else _at_shore(p, shore, shift, dock_across, others, view)
+    rooted = None if shore is None else _at_shore(p, shore, shift, dock_across, others,
+                                                  rects, view)
     return rooted if rooted is not None else (p, (shift - 0.5) * 4.0)
 
 
@@ -201,7 +204,7 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
         wide = GAP[0] + (GAP[1] - GAP[0]) * gap
         dock_across = sign * (beam + wide + HALF_SIZE["dock"][1])
         p, dock_along = _dock_place(p, shore, shift, dock_across,
-                                    [d for k, d in discs.items() if k != i], view)
+                                    [d for k, d in discs.items() if k != i], rects, view)
         discs[i] = (p.x, p.y, discs[i][2])
         group = [(i, p)]
         far = -sign * beam  # the group's side away from the dock, across the first
