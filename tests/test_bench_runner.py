@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -175,3 +176,20 @@ def test_table6_trains_on_real_frames_alone(tmp_path, sprites_dir, capsys):
     log.clear()
     assert run_grid(spec, test, ctx, log=log.append, real=frames6) == results  # done cells
     assert all("done earlier" in line for line in log)
+
+
+def test_table6_cells_train_again_on_another_dataset_seed(tmp_path, sprites_dir):
+    """The frames a Table 6 cell draws depend on the grid's --seed: another seed is
+    another training key (its cell is not taken for the old one's)."""
+    from sdcomp.bench.datasets import real_train
+    from sdcomp.bench.grid import RealCell
+    cache = CacheOptions(tmp_path / "cache", sprites_dir, 1, False)
+    frames = Path(field_test(FieldSpec(n=4, seed=2002), 64, cache).files[0])
+    real = real_train(frames / "annotations" / "instances_train.json", frames / "images")
+    test = field_test(FieldSpec(n=2, seed=2003), 64, cache)
+    spec = GridSpec("t6", tables=(6,), size_scale=0.004, min_images=2, image_size=64,
+                    train=replace(TRAIN, max_iter=1), field=FieldSpec(n=2, seed=2003))
+    keys = [run_cell(RealCell(500), g, test, RunContext(tmp_path / f"r{g.seed}", cache),
+                     real=real)["train_key"]
+            for g in (spec, spec.with_overrides(seed=5))]
+    assert keys[0] != keys[1]

@@ -189,8 +189,9 @@ def _plot_water(ax, rows: dict, tables: set, label: str) -> None:
 
 def _plot_size(ax, rows: dict, tables: set, label: str) -> None:
     """AP and AP50 vs dataset size (Table 3, log x: the paper's image counts, +G rows
-    marked apart), ours (x 100, if table 3 is in ``tables``) and the paper's dashed;
-    ``label`` names the test set."""
+    marked apart), ours (x 100, if table 3 is in ``tables``) and the paper's dashed, and
+    Table 6's real-only AP50 (ours and the paper's) if it is in ``tables``; ``label``
+    names the test set."""
     sizes = [c.n + c.green for c in _cells(3)]
     plain = [i for i, c in enumerate(_cells(3)) if not c.green]
     green = [i for i, c in enumerate(_cells(3)) if c.green]

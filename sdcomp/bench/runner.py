@@ -91,7 +91,7 @@ def run_cell(cell: Cell | RealCell, grid: GridSpec, test: EvalSet, ctx: RunConte
                             f"--real-train FILE --real-train-images DIR")
         parts: list[DatasetPart] = []
         configs: list = []
-        keys = [real.key, f"real{grid.images(cell.n)}"]
+        keys = [real.key, f"real{grid.images(cell.n)}", f"seed{grid.seed}"]  # which frames
     else:
         parts = grid.parts(cell)
         configs = [p.generator_config() for p in parts]
