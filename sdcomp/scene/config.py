@@ -6,8 +6,9 @@ of it (``--field-name``) and a TOML config file a key (``field_name`` or ``field
 Randomised fields are :class:`Param` values (``30``, ``10-50`` or ``10,20,30``) drawn once per
 image. Values are checked in one place, :meth:`GeneratorConfig.__post_init__`, which also
 accepts the text and TOML forms, so ``GeneratorConfig(altitude="10-50")`` and
-``GeneratorConfig(altitude=30)`` both work. Precedence: defaults < ``--preset`` <
-``--config FILE`` < flags on the command line.
+``GeneratorConfig(altitude=30)`` both work.
+
+Precedence: defaults < ``--preset`` < ``--config FILE`` < flags on the command line.
 """
 
 from __future__ import annotations
@@ -183,16 +184,15 @@ class GeneratorConfig:
     moored: float = setting(0.0, "float", "chance that a boat or jet ski lies at rest at a "
                             "dock (lakes, marinas): often a canopied boat lift beside it, a "
                             "jet ski on a drive-on port on half", "P", 0.0, 1.0)
-    groups: float = setting(0.0, "float", "chance that a swimmer has 1-3 others within a few "
-                            "metres, as SAR footage shows them", "P", 0.0, 1.0)
     # objects of non-interest
     clutter: float = setting(0.6, "float", "mean number of floating clutter objects per image "
                              "(0 = none)", "K", 0.0, 50.0, "objects per image")
     clutter_kinds: tuple[str, ...] = setting(DEFAULT_CLUTTER_KINDS, "custom", "clutter kinds "
                                              f"to use: {', '.join(CLUTTER_KINDS)} (the default "
                                              "drops kinds that are objects)", "KIND")
-    shore: float = setting(0.0, "float", "probability of a shoreline with land (a meadow behind "
-                           "rip-rap) at a frame edge", "P", 0.0, 1.0)
+    shore: float = setting(0.0, "float", "probability of a shoreline with land at a frame "
+                           "edge (off by default: the land is a flat textured meadow, not "
+                           "yet an aerial photo of a shore)", "P", 0.0, 1.0)
     hills: float = setting(0.7, "float", "probability of hills on the horizon when the horizon "
                            "is in view", "P", 0.0, 1.0)
     # the drone camera's look

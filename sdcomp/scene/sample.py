@@ -15,7 +15,6 @@ import numpy as np
 
 from .camera import CameraModel, CameraPose, camera_basis, ground_point, ground_points
 from .config import MAX_INSTANCES, GeneratorConfig
-from .groups import group
 from .look import CameraLook
 from .look_table import sample_look
 from .moorings import moor
@@ -63,10 +62,8 @@ def sample_scene(config: GeneratorConfig, index: int, model: CameraModel | None 
         shore = Shore(rng.uniform(0, 360), footprint * rng.uniform(0.2, 0.45),
                       int(rng.integers(2**31)))
     hills = int(rng.integers(2**31)) if rng.random() < config.hills else None
-    placements = group(np.random.default_rng([int(config.seed), int(index), 0x6A0B]), config,
-                       _placements(rng, config, model, pose, shore), (model, pose), shore)
     placements = _travel(np.random.default_rng([int(config.seed), int(index), 0x3A4E]),
-                         config, placements)
+                         config, _placements(rng, config, model, pose, shore))
     placements = moor(np.random.default_rng([int(config.seed), int(index), 0x400D]),
                       config.moored, placements, shore, (model, pose))
     look = sample_look(config.look_preset, rng, model.width, model.height,
@@ -100,10 +97,11 @@ def _travel(rng: np.random.Generator, config: GeneratorConfig,
 
 
 def expose(water: WaterParams, look: CameraLook) -> tuple[WaterParams, CameraLook]:
-    """One exposure per image, made where the light is: the camera's auto exposure (target
-    and bias) becomes the renderer's exposure target, the camera stage adds no gain
-    (``ae_strength``, ``exposure_ev`` 0): sun sparkles clip against the image's exposure,
-    as on a sensor. A clean look keeps the water's own target."""
+    """One exposure per image, made where the light is: the camera's auto exposure (its
+    target luminance and bias) becomes the renderer's exposure target, and the camera
+    stage applies no gain of its own (``ae_strength`` and ``exposure_ev`` 0). Sun sparkles
+    then clip against the exposure the image really has, as on a sensor, instead of being
+    clipped at the renderer's and scaled after. A clean look keeps the water's own target."""
     if look.preset == "clean":
         return water, look
     target = min(max(look.ae_target * 2.0 ** look.exposure_ev, 0.02), 0.6)
