@@ -190,9 +190,8 @@ class GeneratorConfig:
     clutter_kinds: tuple[str, ...] = setting(DEFAULT_CLUTTER_KINDS, "custom", "clutter kinds "
                                              f"to use: {', '.join(CLUTTER_KINDS)} (the default "
                                              "drops kinds that are objects)", "KIND")
-    shore: float = setting(0.0, "float", "probability of a shoreline with land at a frame "
-                           "edge (off by default: the land is a flat textured meadow, not "
-                           "yet an aerial photo of a shore)", "P", 0.0, 1.0)
+    shore: float = setting(0.0, "float", "probability of a shoreline with land (a meadow behind "
+                           "rip-rap) at a frame edge", "P", 0.0, 1.0)
     hills: float = setting(0.7, "float", "probability of hills on the horizon when the horizon "
                            "is in view", "P", 0.0, 1.0)
     # the drone camera's look
