@@ -183,21 +183,25 @@ def grid_from_args(args) -> GridSpec:
 def _real_train(args):
     """Table 6's real training frames (``--real-train``), or None."""
     from .datasets import real_train
-    if (args.real_train is None) != (args.real_train_images is None):
-        raise UserError("--real-train and --real-train-images go together: the COCO file "
-                        "and the folder of its images")
-    if args.real_train is None:
-        return None
-    return real_train(args.real_train, args.real_train_images)
+    pair = _coco_pair(args, "real_train", "real_train_images")
+    return None if pair is None else real_train(*pair)
+
+
+def _coco_pair(args, coco: str, images: str) -> tuple[str, str] | None:
+    """(COCO file, its images' folder) of the flags ``coco`` and ``images`` (dests), None
+    when neither is given; UserError when only one is."""
+    a, b = getattr(args, coco), getattr(args, images)
+    if (a is None) != (b is None):
+        raise UserError(f"--{coco.replace('_', '-')} and --{images.replace('_', '-')} go "
+                        f"together: the COCO file and the folder of its images")
+    return None if a is None else (a, b)
 
 
 def _test_set(args, grid: GridSpec, cache):
     from .datasets import field_test, real_test
-    if (args.test_coco is None) != (args.test_images is None):
-        raise UserError("--test-coco and --test-images go together: the COCO file and the "
-                        "folder of its images")
-    if args.test_coco is not None:
-        return real_test(args.test_coco, args.test_images)
+    pair = _coco_pair(args, "test_coco", "test_images")
+    if pair is not None:
+        return real_test(*pair)
     return field_test(grid.field, grid.image_size, cache)
 
 
@@ -296,11 +300,9 @@ def cmd_eval(args) -> int:
         raise UserError(f"--cell {args.cell}: no finished cell at {meta_path}")
     ctx = _context(args, out)
     size = int(data["config"]["image_size"])
-    if (args.test_coco is None) != (args.test_images is None):
-        raise UserError("--test-coco and --test-images go together: the COCO file and the "
-                        "folder of its images")
-    if args.test_coco is not None:
-        test = real_test(args.test_coco, args.test_images)
+    pair = _coco_pair(args, "test_coco", "test_images")
+    if pair is not None:
+        test = real_test(*pair)
     else:  # the field set the grid was scored on
         try:
             f = json.loads((out / "grid.json").read_text())["grid"]["field"]
