@@ -85,7 +85,7 @@ def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
     reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
     # vertices at most 8 px apart straight down (the wiggle's finest wave is 3.5 m)
     along = np.linspace(-reach, reach, max(800, int(math.ceil(2 * model.fx))))
-    across = shore.distance + shore.wiggle(along)
+    across = shore.coast(along)
     coast = along[:, None] * along_dir + across[:, None] * normal
     far = coast + normal * reach
     poly_world = np.concatenate([coast, far[::-1]])

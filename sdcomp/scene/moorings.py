@@ -136,18 +136,16 @@ def _at_shore(p: Placement, shore: Shore, shift: float, dock_across: float, othe
     it) and the dock's centre along the moved object (metres); None when ``p`` lies over
     :data:`SHORE_REACH` from the coast, or would leave the ``view`` ((model, pose)), touch
     ``others`` ((x, y, radius) discs), the moorings placed (``rects``) or the land."""
-    a = math.radians(shore.angle)
-    along = -p.x * math.sin(a) + p.y * math.cos(a)
-    coast = shore.distance + float(shore.wiggle(along))
-    if coast - (p.x * math.cos(a) + p.y * math.sin(a)) > SHORE_REACH:
+    along, across = (float(v) for v in shore.local(p.x, p.y))
+    coast = float(shore.coast(along))
+    if coast - across > SHORE_REACH:
         return None
     # bow to the land, the object's body y runs along the coast: the dock's place on it
-    root = shore.distance + float(shore.wiggle(along + dock_across)) + ROOT
+    root = float(shore.coast(along + dock_across)) + ROOT
     length = half_length(p.asset)
     room = max(clutter.DOCK_LENGTH - ROOT - 2 * length - 1.0, 0.0)
     across = min(coast, root - ROOT) - (0.5 + length + room * shift)  # the object's centre
-    x = -along * math.sin(a) + across * math.cos(a)
-    y = along * math.cos(a) + across * math.sin(a)
+    x, y = shore.sea(along, across)
     q = replace(p, x=x, y=y, heading=shore.angle)
     bow, stern = _world(q, length, 0.0), _world(q, -length, 0.0)
     seen = view is None or in_view(view[0], view[1], x, y)

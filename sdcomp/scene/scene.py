@@ -71,6 +71,23 @@ class Shore:
                                                    / wavelength + phase)
         return out
 
+    def coast(self, along):
+        """Across (metres along the normal) of the coastline at ``along`` metres."""
+        return self.distance + self.wiggle(along)
+
+    def local(self, x, y):
+        """(along, across) metres of sea points (x, y) in the coast's frame: ``along`` the
+        coast (-sin a, cos a), ``across`` its normal (cos a, sin a), towards the land."""
+        a = math.radians(self.angle)
+        x, y = np.asarray(x), np.asarray(y)
+        return -x * math.sin(a) + y * math.cos(a), x * math.cos(a) + y * math.sin(a)
+
+    def sea(self, along, across):
+        """(x, y) metres on the sea of the point ``along``, ``across`` (:meth:`local`)."""
+        a = math.radians(self.angle)
+        return (-along * math.sin(a) + across * math.cos(a),
+                along * math.cos(a) + across * math.sin(a))
+
 
 @dataclass(frozen=True)
 class FeatureSeeds:
@@ -132,7 +149,5 @@ def on_land(shore: Shore | None, x, y):
     """Whether ground points (x, y) metres lie on the land of ``shore`` (array or bool)."""
     if shore is None:
         return np.zeros(np.shape(x), bool)
-    a = math.radians(shore.angle)
-    along = -np.asarray(x) * math.sin(a) + np.asarray(y) * math.cos(a)
-    across = np.asarray(x) * math.cos(a) + np.asarray(y) * math.sin(a)
-    return across > shore.distance + shore.wiggle(along)
+    along, across = shore.local(x, y)
+    return across > shore.coast(along)
