@@ -46,7 +46,7 @@ from .render.photos import Backgrounds
 from .render.textures import Textures
 from .scene.config import GeneratorConfig
 from .scene.moorings import ASSETS as MOORING_ASSETS
-from .scene.moorings import MOORED_KINDS, parked_assets
+from .scene.moorings import MOORED_KINDS
 from .scene.objects import (
     CLUTTER_PREFIX,
     clutter_assets,
@@ -184,8 +184,6 @@ def _sprite_jobs(config: GeneratorConfig) -> list[tuple[str, str, bool]]:
                  for kind in config.clutter_kinds for key in clutter_assets(kind)]
     if config.moored > 0 and any(object_kind(o.mesh) in MOORED_KINDS for o in config.objects):
         jobs += [(key, clutter_mesh_name(key), True) for key in MOORING_ASSETS]
-        jobs += [(key, key, False) for o in config.objects
-                 for key in parked_assets(object_kind(o.mesh))]
     first: dict[str, tuple[str, str, bool]] = {}
     for job in jobs:
         first.setdefault(job[0], job)

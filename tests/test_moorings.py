@@ -10,10 +10,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sdcomp.assets import sar
 from sdcomp.errors import UserError
 from sdcomp.scene.config import GeneratorConfig
-from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam, parked_assets
+from sdcomp.scene.moorings import ASSETS, HALF_SIZE, clear, half_beam
 from sdcomp.scene.objects import CLUTTER_PREFIX, footprint_radius, keel_depth
 from sdcomp.scene.sample import sample_scene
 from sdcomp.scene.scene import Role
@@ -21,9 +20,6 @@ from sdcomp.scene.scene import Role
 LAKE = {"camera": "custom", "fov": 20.4, "sensor_px": [800, 600], "width": 800,
         "height": 600, "altitude": "105-120", "pitch": 90, "count": "1-4", "water": "lake",
         "objects": [{"mesh": "boat", "weight": 0.3}, {"mesh": "jetski", "weight": 0.7}]}
-
-
-PARKED = sar.parked_names("jetski")
 
 
 def _config(**kw) -> GeneratorConfig:
@@ -48,17 +44,15 @@ def test_clear_tells_a_disc_inside_beside_and_off_a_corner():
 
 def test_unmoored_scenes_are_those_of_before():
     """``moored`` 0 draws nothing more: the scene equals the one drawn with the moorings'
-    stream never used, and a moored run keeps every placement's asset (but for jet skis
-    under their covers: a parked variant) and, but for the jet skis moved beside another
-    (its heading, within 3.5 m), its place and heading, the other clutter included, only
-    adding moorings after them."""
+    stream never used, and a moored run keeps every placement's asset and, but for the
+    jet skis moved beside another (its heading, within 3.5 m), its place and heading, the
+    other clutter included, only adding moorings after them."""
     plain, moored = _config(), _config(moored=1.0)
     moved = 0
     for i in range(40):
         a, b = sample_scene(plain, i), sample_scene(moored, i)
         n = len(a.placements)
-        for p, q in zip(a.placements, b.placements[:n], strict=True):
-            assert q.asset == p.asset or ("jetski" in p.asset and q.asset in PARKED)
+        assert [p.asset for p in a.placements] == [p.asset for p in b.placements[:n]]
         for p, q in zip(a.placements, b.placements[:n], strict=True):
             if (p.x, p.y, p.heading) != (q.x, q.y, q.heading):
                 moved += 1
@@ -232,41 +226,6 @@ def test_mooring_atlases_only_for_runs_that_moor():
     assert moorings(_config(moored=0.5)) == set(ASSETS)
     assert moorings(_config(moored=0.0)) == set()
     assert moorings(GeneratorConfig(moored=1.0)) == set()  # the BlueROV2: nothing moors
-    parked = {key for key, _, clutter in _sprite_jobs(_config(moored=0.5)) if not clutter}
-    assert set(PARKED) <= parked  # the covered jet skis' atlases, as objects'
-    assert not set(PARKED) & {key for key, _, _ in _sprite_jobs(_config(moored=0.0))}
-    assert parked_assets("boat") == () and parked_assets(None) == ()
-
-
-def test_covered_jet_skis_are_parked_variants_drawn_only_at_moorings():
-    """The covered jet skis are jet ski variants numbered after the drawn ones, never drawn
-    in open water: each under a cover (no rider, the cover's colours its top faces), about
-    half the moored jet skis drawn from them, no boat and no unmoored jet ski."""
-    assert len(PARKED) == 4 and not set(PARKED) & set(sar.variant_names("jetski"))
-    assert all(sar.parse_name(n) == ("jetski", 8 + k) for k, n in enumerate(PARKED))
-    assert sar.parse_name("jetski-12") is None
-    with pytest.raises(UserError, match="use 0 to 11"):
-        sar.describe_variant("jetski", 12)
-    for k in range(4):
-        params = sar.describe_variant("jetski", 8 + k)
-        mesh = sar.build("jetski", 8 + k)
-        assert params["rider"] is None and len(params["cover"]["folds"]) > 0
-        assert mesh.closed and mesh.name == PARKED[k]
-        top = mesh.face_colors[mesh.vertices[mesh.faces].mean(axis=1)[:, 2]
-                               > mesh.vertices[:, 2].max() - 0.1]
-        assert (np.abs(top.astype(int) - params["cover"]["top"]) <= 1).all()
-        assert 2.6 < mesh.extents[0] < 3.8 and 1.1 < mesh.extents[1] < 1.4
-    moored, covered, unmoored = _config(moored=1.0, count="1-3", clutter=0), 0, 0
-    jetskis = 0
-    for i in range(60):
-        for p in sample_scene(moored, i).placements:
-            if p.role is Role.OBJECT and "jetski" in p.asset:
-                jetskis += 1
-                covered += p.asset in PARKED
-            assert not ("boat" in p.asset and p.asset in PARKED)
-        unmoored += sum(p.asset in PARKED for p in sample_scene(_config(), i).placements)
-    assert jetskis > 40 and 0.25 * jetskis <= covered <= 0.6 * jetskis
-    assert unmoored == 0
 
 
 def test_docks_near_a_shore_run_out_from_it():

@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..assets import clutter, sar
+from ..assets import clutter
 from .camera import CameraModel, CameraPose, project
 from .objects import CLUTTER_PREFIX, footprint_radius, keel_depth, object_kind, visible_hull
 from .scene import Placement, Role, Shore, on_land
@@ -41,9 +41,6 @@ CANOPY_CHANCE = 0.6
 PORT_CHANCE = 0.5
 #: chance that a moored jet ski has the image's next jet ski moored beside it
 PAIR_CHANCE = 0.5
-#: chance that a moored jet ski lies under its cover (a parked variant,
-#: :data:`~sdcomp.assets.sar.PARKED`): most of the lake photos' moored jet skis do
-COVER_CHANCE = 0.5
 PORT_CLEARANCE = 0.08  # metres from the water up to the keel of a jet ski on its port
 GAP = (0.1, 0.5)  # metres of water between an object's side and the dock or lift beside it
 SHORE_REACH = 25.0  # metres from the coast within which a moored object's dock is rooted
@@ -54,19 +51,6 @@ HALF_SIZE = {"dock": (clutter.DOCK_LENGTH / 2, clutter.DOCK_WIDTH / 2),
              "port": (clutter.PORT_LENGTH / 2, clutter.PORT_WIDTH / 2)}
 #: the asset keys the moorings are drawn from
 ASSETS = tuple(CLUTTER_PREFIX + name for name in clutter.MOORINGS)
-
-
-def parked_assets(kind: str | None) -> tuple[str, ...]:
-    """The asset keys a moored object of ``kind`` may be drawn from besides its own
-    variants (the kind's parked variants: :func:`~sdcomp.assets.sar.parked_names`)."""
-    return sar.parked_names(kind) if kind in MOORED_KINDS else ()
-
-
-def covered(asset: str, u: float) -> str:
-    """The covered jet ski that stands for the jet ski ``asset`` at its mooring: the parked
-    variant of index ``u`` (in [0, 1)) among them."""
-    names = sar.parked_names("jetski")
-    return names[min(int(u * len(names)), len(names) - 1)]
 
 
 def half_beam(asset: str) -> float:
@@ -183,21 +167,6 @@ def _dock_place(p: Placement, shore: Shore | None, shift: float, dock_across: fl
     return rooted if rooted is not None else (p, (shift - 0.5) * 4.0)
 
 
-def _draws(rng: np.random.Generator, moored: float, placements: tuple[Placement, ...]
-           ) -> tuple[dict[int, np.ndarray], tuple[Placement, ...]]:
-    """({index: its eight draws} of each boat and jet ski, in order, and ``placements``
-    with the jet skis that will lie under their covers drawn from a covered variant
-    already, so that every disc and beam is the covered one's)."""
-    out = list(placements)
-    draws: dict[int, np.ndarray] = {}
-    for i, p in enumerate(placements):
-        if p.role is Role.OBJECT and object_kind(p.asset) in MOORED_KINDS:
-            d = draws[i] = rng.random(8)
-            if d[0] < moored and object_kind(p.asset) == "jetski" and d[7] < COVER_CHANCE:
-                out[i] = replace(p, asset=covered(p.asset, d[7] / COVER_CHANCE))
-    return draws, tuple(out)
-
-
 def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, ...],
          shore: Shore | None = None,
          view: tuple[CameraModel, CameraPose] | None = None) -> tuple[Placement, ...]:
@@ -210,14 +179,10 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
     left out. Near a ``shore``, the object moves beside a dock rooted on it
     (:func:`_at_shore`) where it stays in ``view`` ((model, pose) of the image).
 
-    A moored jet ski lies under its cover with chance :data:`COVER_CHANCE` (drawn from a
-    covered variant instead of its own: :func:`covered`).
-
-    Draws from ``rng`` (a stream of its own) eight numbers per boat or jet ski, whatever
+    Draws from ``rng`` (a stream of its own) seven numbers per boat or jet ski, whatever
     is moored, so one object's draws never shift another's."""
     if moored <= 0:
         return placements
-    draws, placements = _draws(rng, moored, placements)
     out = list(placements)
     discs = {i: (p.x, p.y, footprint_radius(p.asset)) for i, p in enumerate(placements)
              if p.asset.removeprefix(CLUTTER_PREFIX) != "foam"}
@@ -225,9 +190,9 @@ def moor(rng: np.random.Generator, moored: float, placements: tuple[Placement, .
     rects: list[Rect] = []
     done: set[int] = set()
     for i, p in enumerate(placements):
-        if i not in draws:
+        if p.role is not Role.OBJECT or object_kind(p.asset) not in MOORED_KINDS:
             continue
-        chance, side, shift, gap, canopy, port, pair, _ = draws[i]
+        chance, side, shift, gap, canopy, port, pair = rng.random(7)
         if chance >= moored or i in done:
             continue
         done.add(i)

@@ -30,10 +30,6 @@ from .common import rng_for
 
 KINDS = ("swimmer", "boat", "jetski", "life_saving_appliances", "buoy")
 VARIANTS = {"swimmer": 20, "boat": 12, "jetski": 8, "life_saving_appliances": 10, "buoy": 10}
-#: variants of a kind numbered after its :data:`VARIANTS`, drawn only for an object at its
-#: mooring (``--moored``), never in open water: jet skis under their fitted covers
-#: (:data:`~.jetski.COVERED_FROM`)
-PARKED = {"jetski": 4}
 
 _MODULES: dict[str, ModuleType] = {
     "swimmer": swimmer, "boat": boat, "jetski": jetski, "life_saving_appliances": lifesaving,
@@ -46,14 +42,9 @@ def _check(kind: str, variant: int) -> None:
     if kind not in _MODULES:
         raise UserError(f"unknown object kind {kind!r}; use one of {', '.join(KINDS)}")
     if not isinstance(variant, int) or isinstance(variant, bool) or not (
-            0 <= variant < _count(kind)):
+            0 <= variant < VARIANTS[kind]):
         raise UserError(f"{kind} variant {variant!r} does not exist; use 0 to "
-                        f"{_count(kind) - 1}")
-
-
-def _count(kind: str) -> int:
-    """How many variants ``kind`` has, the parked ones (:data:`PARKED`) included."""
-    return VARIANTS[kind] + PARKED.get(kind, 0)
+                        f"{VARIANTS[kind] - 1}")
 
 
 def describe_variant(kind: str, variant: int = 0) -> dict:
@@ -69,23 +60,15 @@ def mesh_name(kind: str, variant: int) -> str:
 
 
 def variant_names(kind: str) -> tuple[str, ...]:
-    """The mesh names of the variants of ``kind`` an object is drawn from, in variant order
-    (not the parked ones: :func:`parked_names`)."""
+    """The mesh names of every variant of ``kind``, in variant order."""
     _check(kind, 0)
     return tuple(mesh_name(kind, v) for v in range(VARIANTS[kind]))
-
-
-def parked_names(kind: str) -> tuple[str, ...]:
-    """The mesh names of the parked variants of ``kind`` (:data:`PARKED`; none for most
-    kinds), in variant order."""
-    _check(kind, 0)
-    return tuple(mesh_name(kind, v) for v in range(VARIANTS[kind], _count(kind)))
 
 
 def parse_name(name: str) -> tuple[str, int] | None:
     """(kind, variant) of a variant's mesh name (``"buoy-07"``), None for any other text."""
     m = _NAME.match(name)
-    if m is None or m.group(1) not in VARIANTS or int(m.group(2)) >= _count(m.group(1)):
+    if m is None or m.group(1) not in VARIANTS or int(m.group(2)) >= VARIANTS[m.group(1)]:
         return None
     return m.group(1), int(m.group(2))
 

@@ -4,8 +4,7 @@ Sub-types by size class (``params["sub_type"]``): ``compact`` (Sea-Doo Spark cla
 ``recreation`` (Sea-Doo GTI / Yamaha VX class), ``performance`` (Sea-Doo RXP / Yamaha GP
 class, narrower seat, sharper nose), ``touring`` (Yamaha FX / Kawasaki Ultra class). Even
 variants carry a rider (hands on the grips, feet in the footwells, usually a life vest), odd
-ones are empty. Variants from :data:`COVERED_FROM` on are parked under a fitted cover
-(``params["cover"]``), drawn only for jet skis at their moorings.
+ones are empty.
 
 Parts: a deep-V lofted hull, a deck band with footwells either side of a pedestal, a long
 saddle, a hood rising to the handlebar pod, handlebars with black grips, a small visor, a
@@ -30,9 +29,6 @@ from .person import Body, Outfit, Pose, build_person
 
 SUB_TYPES = ("compact", "recreation", "performance", "touring")
 NOZZLE = 0.18  # the jet nozzle sticks out this far behind the transom (metres)
-#: the first covered variant (the variants before it are under way or ridden)
-COVERED_FROM = 8
-COVER_FOLDS = 10  # creases pressed into a cover where it sags between seat, hood and bars
 
 # length, width, height ranges (metres) and dry mass (kg) per class
 CLASSES = {
@@ -49,12 +45,11 @@ def _r(x: float, nd: int = 3) -> float:
 
 def draw(rng: np.random.Generator, variant: int) -> dict:
     """The drawn parameters of jet ski ``variant`` (JSON-able; metres, kg, sRGB)."""
-    covered = variant >= COVERED_FROM
-    sub = SUB_TYPES[(variant - COVERED_FROM if covered else variant // 2) % len(SUB_TYPES)]
+    sub = SUB_TYPES[(variant // 2) % len(SUB_TYPES)]
     (l0, l1), (w0, w1), (h0, h1), (m0, m1) = CLASSES[sub]
     primary = jitter(pick(rng, palette.PWC), rng, 0.04)
     trim = jitter(pick(rng, palette.PWC_TRIM), rng, 0.04)
-    rider = variant % 2 == 0 and not covered
+    rider = variant % 2 == 0
     colours = _colours(rng_for("jetski-colours", variant),
                        palette.PWC_DECK[variant % len(palette.PWC_DECK)],
                        palette.PWC_ACCENT[variant % len(palette.PWC_ACCENT)])
@@ -82,14 +77,6 @@ def draw(rng: np.random.Generator, variant: int) -> dict:
             else None,
             "lean": _r(rng.uniform(10, 25), 1),
         }
-    if covered:
-        top, side = palette.PWC_COVER[(variant - COVERED_FROM) % len(palette.PWC_COVER)]
-        folds = [[_r(rng.uniform(-0.45, 0.4)), _r(rng.uniform(-0.8, 0.8)),
-                  _r(rng.uniform(-35, 35), 1), _r(rng.uniform(0.3, 0.9))]
-                 for _ in range(COVER_FOLDS)]
-        params["cover"] = {"top": list(jitter(top, rng, 0.03)),
-                           "side": list(jitter(side, rng, 0.03)),
-                           "folds": folds}
     return params
 
 
@@ -218,40 +205,4 @@ def _build(params: dict, p: Painter) -> tuple[m3.Manifold, float]:
     if params["rider"]:
         extra.append(_rider(p, params))
     wl = waterline_for_mass(union([outer, *extra[:1]]), mass)
-    if params.get("cover"):
-        return union([solid, _cover(p, params, spec, outer, extra)]), wl
     return union([solid, *extra]), wl
-
-
-def _cover(p: Painter, params: dict, spec: HullSpec, outer: m3.Manifold,
-           topside: list[m3.Manifold]) -> m3.Manifold:
-    """A fitted cover over the deck, saddle, hood and bars, down 0.12 m past the sheer: the
-    hull of them 3 cm proud, its sides below the saddle's foot in the cover's side colour,
-    creased where it sags (each of ``params["cover"]["folds"]``: [along, across as
-    fractions of the half length and half beam, angle to the keel in degrees, length in
-    metres] a 9 cm crease 3 cm deep at the surface there)."""
-    c = params["cover"]
-    D, L = spec.depth, params["length"]
-    skirt = outer ^ box_between((-L, -2.0, D - 0.12), (L, 2.0, D + 2.0))
-    shell = hull([skirt, *topside[:4]])
-    lo = np.asarray(shell.bounding_box()[:3])
-    hi = np.asarray(shell.bounding_box()[3:])
-    centre = (lo + hi) / 2
-    grow = (hi - lo + 0.06) / np.maximum(hi - lo, 1e-6)
-    shell = shell.translate((-centre).tolist()).scale(grow.tolist()).translate(centre.tolist())
-    verts = np.asarray(shell.to_mesh().vert_properties, np.float64)[:, :3]
-    cuts = []
-    for along, across, angle, length in c["folds"]:
-        x, y = along * L, across * spec.half_beam(0.4)
-        a = math.radians(angle)
-        dx, dy = 0.5 * length * math.cos(a), 0.5 * length * math.sin(a)
-        ends = []
-        for ex, ey in ((x - dx, y - dy), (x + dx, y + dy)):
-            near = np.hypot(verts[:, 0] - ex, verts[:, 1] - ey) < 0.25
-            ends.append((ex, ey, float(verts[near, 2].max() if near.any() else D) + 0.015))
-        cuts.append(capsule(ends[0], ends[1], 0.045, 0.045, SEG_XS))
-    crease = p.paint(union(cuts), c["top"])
-    shell = shell - crease
-    foot = D + 0.5 * (params["height"] * 0.80 - D)
-    return p.paint_split(shell, box_between((-L, -2.0, foot), (L, 2.0, D + 2.0)), c["top"],
-                         c["side"])

@@ -127,13 +127,6 @@ PWC_ACCENT: tuple[RGB, ...] = (
 )
 PWC_SEAT: tuple[RGB, ...] = ((28, 28, 30), (28, 28, 30), (28, 28, 30), (55, 57, 60),
                              (130, 132, 136))
-#: a jet ski's fitted cover seen from above (top, sides), parked variant ``v``'s the
-#: ``v``-th: white or pale grey marine fabric, on two with coloured sides (the lake
-#: photos' covers: white, white over royal or light blue, silver grey over charcoal)
-PWC_COVER: tuple[tuple[RGB, RGB], ...] = (
-    ((226, 228, 230), (40, 85, 175)), ((196, 199, 203), (196, 199, 203)),
-    ((232, 233, 234), (232, 233, 234)), ((168, 172, 178), (62, 64, 68)),
-)
 BLACK = (28, 28, 30)
 DARK_GREY = (55, 57, 60)
 STEEL = (120, 122, 126)
