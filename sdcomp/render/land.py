@@ -81,12 +81,10 @@ def land_masks(model: CameraModel, pose: CameraPose, shore: Shore
     w, h = model.width, model.height
     a = math.radians(shore.angle)
     normal = np.array([math.cos(a), math.sin(a)])
-    along_dir = np.array([-math.sin(a), math.cos(a)])
     reach = pose.altitude * 8  # beyond the frame of any view that sees the coast
     # vertices at most 8 px apart straight down (the wiggle's finest wave is 3.5 m)
     along = np.linspace(-reach, reach, max(800, int(math.ceil(2 * model.fx))))
-    across = shore.coast(along)
-    coast = along[:, None] * along_dir + across[:, None] * normal
+    coast = np.stack(shore.sea(along, shore.coast(along)), axis=1)
     far = coast + normal * reach
     poly_world = np.concatenate([coast, far[::-1]])
     pts = np.concatenate([poly_world, np.zeros((len(poly_world), 1))], axis=1)

@@ -136,9 +136,9 @@ def _at_shore(p: Placement, shore: Shore, shift: float, dock_across: float, othe
     it) and the dock's centre along the moved object (metres); None when ``p`` lies over
     :data:`SHORE_REACH` from the coast, or would leave the ``view`` ((model, pose)), touch
     ``others`` ((x, y, radius) discs), the moorings placed (``rects``) or the land."""
-    along, across = (float(v) for v in shore.local(p.x, p.y))
+    along, off = (float(v) for v in shore.local(p.x, p.y))
     coast = float(shore.coast(along))
-    if coast - across > SHORE_REACH:
+    if coast - off > SHORE_REACH:
         return None
     # bow to the land, the object's body y runs along the coast: the dock's place on it
     root = float(shore.coast(along + dock_across)) + ROOT
